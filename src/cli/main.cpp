@@ -1,0 +1,3 @@
+#include "core/version.h"
+#include <cstdio>
+int main() { std::puts("scalemesh " SCALEMESH_VERSION); return 0; }

@@ -1,0 +1,68 @@
+#include "core/adjacency.h"
+
+#include <algorithm>
+
+namespace scalemesh {
+
+VertexTable vertex_triangles(const SurfaceMesh& mesh)
+{
+    const auto n = static_cast<int32_t>(mesh.points.size());
+    VertexTable table;
+    table.offsets.assign(n + 1, 0);
+    for (const Triangle& t : mesh.triangles)
+        for (int32_t v : t) ++table.offsets[v + 1];
+    for (int32_t i = 0; i < n; ++i) table.offsets[i + 1] += table.offsets[i];
+    table.items.resize(table.offsets[n]);
+    std::vector<int32_t> fill(table.offsets.begin(), table.offsets.end() - 1);
+    for (int32_t f = 0; f < static_cast<int32_t>(mesh.triangles.size()); ++f)
+        for (int32_t v : mesh.triangles[f]) table.items[fill[v]++] = f;
+    return table;
+}
+
+VertexTable vertex_neighbours(const SurfaceMesh& mesh)
+{
+    const auto n = static_cast<int32_t>(mesh.points.size());
+    VertexTable table;
+    table.offsets.assign(n + 1, 0);
+    for (const Triangle& t : mesh.triangles)
+        for (int32_t v : t) table.offsets[v + 1] += 2;
+    for (int32_t i = 0; i < n; ++i) table.offsets[i + 1] += table.offsets[i];
+    std::vector<int32_t> raw(table.offsets[n]);
+    std::vector<int32_t> fill(table.offsets.begin(), table.offsets.end() - 1);
+    for (const Triangle& t : mesh.triangles)
+        for (int k = 0; k < 3; ++k) {
+            raw[fill[t[k]]++] = t[(k + 1) % 3];
+            raw[fill[t[k]]++] = t[(k + 2) % 3];
+        }
+    // Sort and unique each row, compacting in place.
+    table.items.clear();
+    table.items.reserve(raw.size() / 2);
+    std::vector<int32_t> offsets(n + 1, 0);
+    for (int32_t i = 0; i < n; ++i) {
+        auto first = raw.begin() + table.offsets[i];
+        auto last = raw.begin() + table.offsets[i + 1];
+        std::sort(first, last);
+        last = std::unique(first, last);
+        table.items.insert(table.items.end(), first, last);
+        offsets[i + 1] = static_cast<int32_t>(table.items.size());
+    }
+    table.offsets = std::move(offsets);
+    return table;
+}
+
+std::vector<std::array<int32_t, 2>> unique_edges(const SurfaceMesh& mesh)
+{
+    std::vector<std::array<int32_t, 2>> edges;
+    edges.reserve(mesh.triangles.size() * 3);
+    for (const Triangle& t : mesh.triangles)
+        for (int k = 0; k < 3; ++k) {
+            int32_t a = t[k], b = t[(k + 1) % 3];
+            if (a > b) std::swap(a, b);
+            edges.push_back({a, b});
+        }
+    std::sort(edges.begin(), edges.end());
+    edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+    return edges;
+}
+
+} // namespace scalemesh

@@ -1,0 +1,30 @@
+#pragma once
+// Adjacency of a SurfaceMesh built on demand, in compressed-row form.
+
+#include "core/surface_mesh.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace scalemesh {
+
+// Row i lists the items attached to vertex i: items[offsets[i] .. offsets[i+1]).
+struct VertexTable {
+    std::vector<int32_t> offsets;
+    std::vector<int32_t> items;
+
+    int32_t size(int32_t i) const { return offsets[i + 1] - offsets[i]; }
+    const int32_t* begin(int32_t i) const { return items.data() + offsets[i]; }
+    const int32_t* end(int32_t i) const { return items.data() + offsets[i + 1]; }
+};
+
+// Triangles incident to each vertex.
+VertexTable vertex_triangles(const SurfaceMesh& mesh);
+
+// Vertices joined to each vertex by an edge, sorted, without repeats.
+VertexTable vertex_neighbours(const SurfaceMesh& mesh);
+
+// Undirected edges (a < b), sorted, without repeats.
+std::vector<std::array<int32_t, 2>> unique_edges(const SurfaceMesh& mesh);
+
+} // namespace scalemesh

@@ -1,0 +1,72 @@
+#include "core/atomic_file.h"
+
+#include "core/errors.h"
+
+#include <array>
+#include <atomic>
+#include <cstring>
+#include <unistd.h>
+
+namespace scalemesh {
+
+namespace {
+
+// A fixed table of pending temporary names, readable from a signal handler.
+constexpr int kMaxPending = 64;
+constexpr int kMaxName = 4096;
+std::array<std::atomic<bool>, kMaxPending> g_in_use{};
+std::array<std::array<char, kMaxName>, kMaxPending> g_names{};
+
+int register_pending(const std::string& name)
+{
+    if (name.size() + 1 > kMaxName) return -1;
+    for (int i = 0; i < kMaxPending; ++i) {
+        bool expected = false;
+        if (!g_in_use[i].load() && g_in_use[i].compare_exchange_strong(expected, true)) {
+            std::memcpy(g_names[i].data(), name.c_str(), name.size() + 1);
+            return i;
+        }
+    }
+    return -1;
+}
+
+void unregister_pending(int slot)
+{
+    if (slot >= 0) g_in_use[slot].store(false);
+}
+
+} // namespace
+
+AtomicOutput::AtomicOutput(std::filesystem::path path) : path_(std::move(path))
+{
+    std::string name = path_.stem().string() + ".partial-" + std::to_string(::getpid()) + path_.extension().string();
+    temporary_ = path_.parent_path() / name;
+    slot_ = register_pending(std::filesystem::absolute(temporary_).string());
+}
+
+AtomicOutput::~AtomicOutput()
+{
+    if (!committed_) {
+        std::error_code ignored;
+        std::filesystem::remove(temporary_, ignored);
+    }
+    unregister_pending(slot_);
+}
+
+void AtomicOutput::commit()
+{
+    std::error_code ec;
+    if (!std::filesystem::exists(temporary_, ec))
+        throw IoError(path_.string(), "the writer produced no file");
+    std::filesystem::rename(temporary_, path_, ec);
+    if (ec) throw IoError(path_.string(), "cannot move the finished file into place: " + ec.message());
+    committed_ = true;
+}
+
+void remove_pending_outputs() noexcept
+{
+    for (int i = 0; i < kMaxPending; ++i)
+        if (g_in_use[i].load()) ::unlink(g_names[i].data());
+}
+
+} // namespace scalemesh

@@ -1,0 +1,183 @@
+#include "core/surface_mesh.h"
+
+#include "core/adjacency.h"
+#include "core/errors.h"
+
+#include <algorithm>
+#include <limits>
+#include <numeric>
+#include <sstream>
+#include <unordered_map>
+
+namespace scalemesh {
+
+namespace {
+
+struct DirectedEdge {
+    int32_t a, b;     // as traversed by the triangle
+    int32_t triangle;
+    int32_t lo() const { return std::min(a, b); }
+    int32_t hi() const { return std::max(a, b); }
+};
+
+std::vector<DirectedEdge> sorted_directed_edges(const SurfaceMesh& mesh)
+{
+    std::vector<DirectedEdge> edges;
+    edges.reserve(mesh.triangles.size() * 3);
+    for (int32_t f = 0; f < static_cast<int32_t>(mesh.triangles.size()); ++f) {
+        const Triangle& t = mesh.triangles[f];
+        for (int k = 0; k < 3; ++k) edges.push_back({t[k], t[(k + 1) % 3], f});
+    }
+    std::sort(edges.begin(), edges.end(), [](const DirectedEdge& p, const DirectedEdge& q) {
+        return p.lo() != q.lo() ? p.lo() < q.lo() : (p.hi() != q.hi() ? p.hi() < q.hi() : p.triangle < q.triangle);
+    });
+    return edges;
+}
+
+int32_t find_root(std::vector<int32_t>& parent, int32_t i)
+{
+    while (parent[i] != i) {
+        parent[i] = parent[parent[i]];
+        i = parent[i];
+    }
+    return i;
+}
+
+} // namespace
+
+double signed_volume(const SurfaceMesh& mesh)
+{
+    double six_volume = 0;
+    for (const Triangle& t : mesh.triangles) {
+        const Vec3& a = mesh.points[t[0]];
+        const Vec3& b = mesh.points[t[1]];
+        const Vec3& c = mesh.points[t[2]];
+        six_volume += dot(a, cross(b, c));
+    }
+    return six_volume / 6.0;
+}
+
+std::vector<int32_t> triangle_components(const SurfaceMesh& mesh, int32_t* count)
+{
+    const auto nt = static_cast<int32_t>(mesh.triangles.size());
+    std::vector<int32_t> parent(nt);
+    std::iota(parent.begin(), parent.end(), 0);
+    const std::vector<DirectedEdge> edges = sorted_directed_edges(mesh);
+    for (size_t i = 1; i < edges.size(); ++i)
+        if (edges[i].lo() == edges[i - 1].lo() && edges[i].hi() == edges[i - 1].hi()) {
+            const int32_t ra = find_root(parent, edges[i].triangle);
+            const int32_t rb = find_root(parent, edges[i - 1].triangle);
+            if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
+        }
+    std::vector<int32_t> label(nt, -1), root_label(nt, -1);
+    int32_t n = 0;
+    for (int32_t f = 0; f < nt; ++f) {
+        const int32_t r = find_root(parent, f);
+        if (root_label[r] < 0) root_label[r] = n++;
+        label[f] = root_label[r];
+    }
+    if (count) *count = n;
+    return label;
+}
+
+void bounding_box(const SurfaceMesh& mesh, Vec3& lo, Vec3& hi)
+{
+    const double inf = std::numeric_limits<double>::infinity();
+    lo = {inf, inf, inf};
+    hi = {-inf, -inf, -inf};
+    for (const Vec3& p : mesh.points)
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = std::min(lo[k], p[k]);
+            hi[k] = std::max(hi[k], p[k]);
+        }
+}
+
+SurfaceFacts surface_facts(const SurfaceMesh& mesh)
+{
+    SurfaceFacts facts;
+    facts.triangles = static_cast<int64_t>(mesh.triangles.size());
+
+    std::vector<char> used(mesh.points.size(), 0);
+    for (const Triangle& t : mesh.triangles) {
+        for (int32_t v : t) used[v] = 1;
+        if (t[0] == t[1] || t[1] == t[2] || t[2] == t[0]) ++facts.degenerate_triangles;
+        const Vec3& a = mesh.points[t[0]];
+        facts.area += 0.5 * norm(cross(mesh.points[t[1]] - a, mesh.points[t[2]] - a));
+    }
+    facts.vertices = std::count(used.begin(), used.end(), 1);
+
+    const std::vector<DirectedEdge> edges = sorted_directed_edges(mesh);
+    for (size_t i = 0; i < edges.size();) {
+        size_t j = i;
+        while (j < edges.size() && edges[j].lo() == edges[i].lo() && edges[j].hi() == edges[i].hi()) ++j;
+        const size_t count = j - i;
+        ++facts.edges;
+        if (count == 1) ++facts.boundary_edges;
+        else if (count > 2) ++facts.nonmanifold_edges;
+        else if (edges[i].a == edges[i + 1].a) ++facts.misoriented_edges;
+        i = j;
+    }
+
+    // A vertex is manifold when the link edges of its triangle fan form one cycle.
+    const VertexTable fans = vertex_triangles(mesh);
+    std::unordered_map<int32_t, int32_t> next;
+    for (int32_t v = 0; v < static_cast<int32_t>(mesh.points.size()); ++v) {
+        if (fans.size(v) == 0) continue;
+        next.clear();
+        bool ok = true;
+        for (const int32_t* f = fans.begin(v); f != fans.end(v); ++f) {
+            const Triangle& t = mesh.triangles[*f];
+            const int k = t[0] == v ? 0 : (t[1] == v ? 1 : 2);
+            if (!next.emplace(t[(k + 1) % 3], t[(k + 2) % 3]).second) ok = false;
+        }
+        if (ok) {
+            int32_t start = next.begin()->first, cur = start, steps = 0;
+            do {
+                auto it = next.find(cur);
+                if (it == next.end()) { ok = false; break; }
+                cur = it->second;
+                ++steps;
+            } while (cur != start && steps <= fans.size(v));
+            ok = ok && cur == start && steps == fans.size(v);
+        }
+        if (!ok) ++facts.nonmanifold_vertices;
+    }
+
+    int32_t components = 0;
+    triangle_components(mesh, &components);
+    facts.components = components;
+    facts.euler_characteristic = facts.vertices - facts.edges + facts.triangles;
+    facts.signed_volume = signed_volume(mesh);
+    return facts;
+}
+
+void require_closed_manifold(const SurfaceMesh& mesh, const std::string& what)
+{
+    if (mesh.triangles.empty())
+        throw InputError(what + " has no triangles", "check that the input holds a closed surface");
+    const SurfaceFacts facts = surface_facts(mesh);
+    if (facts.closed_manifold()) return;
+
+    std::ostringstream msg;
+    msg << what << " is not a closed, oriented 2-manifold: " << facts.boundary_edges << " open edges, "
+        << facts.nonmanifold_edges << " non-manifold edges, " << facts.misoriented_edges
+        << " inconsistently oriented edges, " << facts.nonmanifold_vertices << " non-manifold vertices, "
+        << facts.degenerate_triangles << " degenerate triangles";
+    // Name where the first open edges are, so the user can find them.
+    const std::vector<DirectedEdge> edges = sorted_directed_edges(mesh);
+    int shown = 0;
+    for (size_t i = 0; i < edges.size() && shown < 3;) {
+        size_t j = i;
+        while (j < edges.size() && edges[j].lo() == edges[i].lo() && edges[j].hi() == edges[i].hi()) ++j;
+        if (j - i != 2) {
+            const Vec3 p = 0.5 * (mesh.points[edges[i].a] + mesh.points[edges[i].b]);
+            msg << (shown == 0 ? "; first at (" : ", (") << p.x << ", " << p.y << ", " << p.z << ")";
+            ++shown;
+        }
+        i = j;
+    }
+    throw InputError(msg.str(), "the method needs a closed surface: repair it (fill holes, remove "
+                                "duplicate faces) or start from the segmentation image");
+}
+
+} // namespace scalemesh
