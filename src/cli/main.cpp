@@ -1,3 +1,156 @@
+// The scalemesh command line: verbs phantom, surface and run. Errors from the
+// library become one line on stderr and a non-zero exit code; an interrupt
+// removes every output still being written.
+
+#include "core/atomic_file.h"
+#include "core/errors.h"
 #include "core/version.h"
+#include "exporters/surface_writers.h"
+#include "importers/vdb_importer.h"
+#include "phantom/phantom.h"
+#include "pipeline/run_case.h"
+
+#include <CLI/CLI.hpp>
+
+#include <csignal>
 #include <cstdio>
-int main() { std::puts("scalemesh " SCALEMESH_VERSION); return 0; }
+#include <iostream>
+#include <unistd.h>
+
+namespace {
+
+using namespace scalemesh;
+
+void on_signal(int signal)
+{
+    remove_pending_outputs();
+    ::_exit(128 + signal);
+}
+
+enum class Verbosity { Quiet, Normal, Verbose };
+
+StageListener progress(Verbosity verbosity)
+{
+    return [verbosity](const StageTime& stage) {
+        if (verbosity == Verbosity::Quiet) return;
+        if (stage.seconds < 0) {
+            if (verbosity == Verbosity::Verbose) std::fprintf(stderr, "scalemesh: %s ...\n", stage.name.c_str());
+            return;
+        }
+        std::fprintf(stderr, "scalemesh: %-10s %7.2f s  %s\n", stage.name.c_str(), stage.seconds,
+                     stage.summary.c_str());
+    };
+}
+
+std::string extension_of(const std::string& path) { return std::filesystem::path(path).extension().string(); }
+
+} // namespace
+
+int main(int argc, char** argv)
+{
+    std::signal(SIGINT, on_signal);
+    std::signal(SIGTERM, on_signal);
+
+    CLI::App app{"scalemesh " SCALEMESH_VERSION
+                 ": scale-invariant layered tetrahedral meshes from segmented images, for CFD"};
+    app.require_subcommand(1);
+    app.fallthrough(); // -q and -v after the verb too
+    app.set_version_flag("--version", SCALEMESH_VERSION);
+    bool quiet = false, verbose = false;
+    app.add_flag("-q,--quiet", quiet, "Print nothing but errors");
+    app.add_flag("-v,--verbose", verbose, "Print each stage as it starts");
+
+    // phantom
+    std::string shape, phantom_out;
+    PhantomParams phantom;
+    auto* phantom_cmd = app.add_subcommand("phantom", "Write a phantom label image (0/1 voxels) as an OpenVDB grid");
+    std::string shapes;
+    for (const std::string& n : phantom_names()) shapes += (shapes.empty() ? "" : ", ") + n;
+    phantom_cmd->add_option("shape", shape, "One of: " + shapes)->required();
+    phantom_cmd->add_option("-o,--output", phantom_out, "Output .vdb file")->required();
+    phantom_cmd->add_option("--voxel-size", phantom.voxel_size, "Voxel width in mm (default 0.5)");
+    phantom_cmd->add_option("--noise", phantom.noise, "Per-voxel noise amplitude in voxel widths (default 0)");
+    phantom_cmd->add_option("--seed", phantom.seed, "Seed of the noise (default 1)");
+
+    // surface
+    std::string surface_in, surface_out, grid_name;
+    std::optional<double> iso;
+    int connectivity = 6;
+    std::optional<int> sweeps;
+    bool sizing = false;
+    std::string L_min, L_max;
+    auto* surface_cmd = app.add_subcommand(
+        "surface", "Marching cubes surface of an image (optionally smoothed, with the feature size field)");
+    surface_cmd->add_option("input", surface_in, "Input image (.vdb) or closed surface (.stl)")->required();
+    surface_cmd->add_option("-o,--output", surface_out, "Output surface: .msh, .vtk or .stl")->required();
+    surface_cmd->add_option("--grid", grid_name, "VDB grid name (default: the first scalar grid)");
+    surface_cmd->add_option("--iso", iso, "Iso value (default 0 for level sets, 0.5 for label grids)");
+    surface_cmd->add_option("--connectivity", connectivity, "Inside voxel connectivity, 6 or 26 (default 6)")
+        ->check(CLI::IsMember({6, 26}));
+    surface_cmd->add_option("--smooth", sweeps,
+                            "Volume-conserving smoothing sweeps (default 0, or 10 with --sizing)");
+    surface_cmd->add_flag("--sizing", sizing, "Compute D, D_out and d (Algorithm 1) and write them as fields");
+    surface_cmd->add_option("--L-min", L_min, "Smallest feature size, e.g. \"0.5 voxels\" or \"1 mm\"");
+    surface_cmd->add_option("--L-max", L_max, "Largest feature size (default: the largest extent)");
+
+    // run
+    std::string case_dir;
+    auto* run_cmd = app.add_subcommand("run", "Run a case directory (scalemesh.toml) and write its outputs into it");
+    run_cmd->add_option("case", case_dir, "Case directory holding scalemesh.toml")->required();
+
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e);
+    }
+    const Verbosity verbosity = quiet ? Verbosity::Quiet : (verbose ? Verbosity::Verbose : Verbosity::Normal);
+
+    try {
+        if (*phantom_cmd) {
+            if (extension_of(phantom_out) != ".vdb")
+                throw InputError("the phantom output '" + phantom_out + "' must end in .vdb",
+                                 "give -o NAME.vdb");
+            const auto solid = make_shape(shape, phantom.voxel_size);
+            const auto grid = voxelize(*solid, phantom);
+            write_vdb(*grid, phantom_out);
+            if (verbosity != Verbosity::Quiet)
+                std::fprintf(stderr, "scalemesh: wrote %s (%llu inside voxels of %g mm)\n", phantom_out.c_str(),
+                             static_cast<unsigned long long>(grid->activeVoxelCount()), phantom.voxel_size);
+        } else if (*surface_cmd) {
+            const std::string ext = extension_of(surface_out);
+            if (ext != ".msh" && ext != ".vtk" && ext != ".stl")
+                throw InputError("the output '" + surface_out + "' has an unknown format",
+                                 "give a file ending in .msh, .vtk or .stl");
+            // The verb is a case without a case file: its flags fill one in.
+            std::string text = "[input]\nfile = " + CLI::detail::to_string(std::quoted(surface_in)) + "\n";
+            if (!grid_name.empty()) text += "grid = " + CLI::detail::to_string(std::quoted(grid_name)) + "\n";
+            if (iso) text += "iso = " + std::to_string(*iso) + "\n";
+            text += "connectivity = " + std::to_string(connectivity) + "\n";
+            text += "[smoothing]\nsweeps = " + std::to_string(sweeps.value_or(sizing ? 10 : 0)) + "\n";
+            text += "[sizing]\n";
+            if (!L_min.empty()) text += "L_min = " + CLI::detail::to_string(std::quoted(L_min)) + "\n";
+            if (!L_max.empty()) text += "L_max = " + CLI::detail::to_string(std::quoted(L_max)) + "\n";
+            const CaseConfig config = parse_case(text, ".", "command line");
+            const SurfaceRun run = run_surface_pipeline(config, {.sizing = sizing}, progress(verbosity));
+            write_surface(run.surface, surface_fields(run), surface_out);
+            if (verbosity != Verbosity::Quiet) std::fprintf(stderr, "scalemesh: wrote %s\n", surface_out.c_str());
+        } else if (*run_cmd) {
+            const CaseResult result = run_case(case_dir, progress(verbosity));
+            if (verbosity != Verbosity::Quiet) {
+                std::fprintf(stderr, "scalemesh: %lld surface triangles; wrote", static_cast<long long>(result.run.facts.triangles));
+                for (const auto& p : result.written) std::fprintf(stderr, " %s", p.string().c_str());
+                std::fprintf(stderr, "\n");
+            }
+        }
+    } catch (const scalemesh::Error& e) {
+        std::fprintf(stderr, "scalemesh: error: %s\n", e.what());
+        return e.exit_code();
+    } catch (const std::bad_alloc&) {
+        std::fprintf(stderr, "scalemesh: error: out of memory. Hint: use a larger voxel size or a smaller region\n");
+        return 5;
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "scalemesh: internal error: %s\n", e.what());
+        return 70;
+    }
+    return 0;
+}

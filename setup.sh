@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# scalemesh set-up on Debian 12, as root: installs the Debian packages that are
+# missing, configures and builds, then
+#   bash setup.sh        runs the default sample case (cases/tube)
+#   bash setup.sh test   runs the whole test suite with ctest
+#   bash setup.sh bench  runs the benchmarks in bench/
+# Both are idempotent: with nothing missing and nothing changed they only
+# re-check the packages and let the build find nothing to do.
+set -euo pipefail
+cd "$(dirname "$0")"
+
+packages=(
+  cmake ninja-build g++ pkg-config
+  libopenvdb-dev libboost-iostreams-dev libembree-dev libcgal-dev libgmsh-dev libtbb-dev
+  libboost-dev libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
+  googletest libgtest-dev libbenchmark-dev
+  openfoam
+)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ "${#missing[@]}" -gt 0 ]; then
+  echo "setup: installing ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -qq
+  apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+build=build
+if [ ! -f "$build/build.ninja" ]; then
+  cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release
+fi
+cmake --build "$build"
+
+case "${1:-run}" in
+  run)
+    "$build/src/cli/scalemesh" run cases/tube
+    ;;
+  test)
+    ctest --test-dir "$build" --output-on-failure -j "$(nproc)" --timeout 900
+    ;;
+  bench)
+    "$build/bench/bench_marching_cubes"
+    ;;
+  *)
+    echo "usage: bash setup.sh [run|test|bench]" >&2
+    exit 2
+    ;;
+esac

@@ -1,0 +1,221 @@
+#include "pipeline/case_config.h"
+
+#include "core/errors.h"
+#include "phantom/phantom.h"
+
+#include <toml++/toml.h>
+
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace scalemesh {
+
+std::string Length::text() const
+{
+    std::ostringstream out;
+    out << value << (voxels ? " voxels" : " mm");
+    return out.str();
+}
+
+namespace {
+
+std::string join(const std::vector<std::string>& items)
+{
+    std::string out;
+    for (const std::string& s : items) out += (out.empty() ? "" : ", ") + s;
+    return out;
+}
+
+// Reads one table, refusing keys it does not know.
+class Section {
+public:
+    Section(const toml::table* table, std::string name, std::string source, std::vector<std::string> keys)
+        : table_(table), name_(std::move(name)), source_(std::move(source)), keys_(std::move(keys))
+    {
+        if (!table_) return;
+        for (const auto& [key, value] : *table_) {
+            (void)value;
+            if (std::find(keys_.begin(), keys_.end(), std::string(key.str())) == keys_.end())
+                throw InputError(where(std::string(key.str())) + " is not a known key",
+                                 "the keys of [" + name_ + "] are: " + join(keys_));
+        }
+    }
+
+    bool has(const std::string& key) const { return table_ && table_->contains(key); }
+
+    template <typename T>
+    std::optional<T> get(const std::string& key) const
+    {
+        if (!has(key)) return std::nullopt;
+        const toml::node& node = *table_->get(key);
+        if constexpr (std::is_same_v<T, double>) {
+            if (auto v = node.value<double>()) return *v; // integers convert too
+            throw InputError(where(key) + " must be a number", "write e.g. " + key + " = 1.0");
+        } else if constexpr (std::is_same_v<T, int64_t>) {
+            if (node.is_integer()) return *node.value<int64_t>();
+            throw InputError(where(key) + " must be a whole number", "write e.g. " + key + " = 10");
+        } else if constexpr (std::is_same_v<T, bool>) {
+            if (node.is_boolean()) return *node.value<bool>();
+            throw InputError(where(key) + " must be true or false", "write " + key + " = true");
+        } else if constexpr (std::is_same_v<T, std::string>) {
+            if (node.is_string()) return *node.value<std::string>();
+            throw InputError(where(key) + " must be a string", "write " + key + " = \"...\"");
+        }
+        return std::nullopt;
+    }
+
+    double number(const std::string& key, double fallback, double lo, double hi, bool lo_open = false) const
+    {
+        const double v = get<double>(key).value_or(fallback);
+        if (!std::isfinite(v) || v > hi || (lo_open ? v <= lo : v < lo)) {
+            std::ostringstream range;
+            range << (lo_open ? "(" : "[") << lo << ", " << hi << "]";
+            throw InputError(where(key) + " = " + std::to_string(v) + " is out of range",
+                             "choose a value in " + range.str());
+        }
+        return v;
+    }
+
+    Length length(const std::string& key) const
+    {
+        const toml::node& node = *table_->get(key);
+        Length out;
+        if (auto v = node.value<double>()) {
+            out.value = *v;
+        } else if (auto s = node.value<std::string>()) {
+            std::istringstream in(*s);
+            std::string unit;
+            if (!(in >> out.value) || !(in >> unit) || (unit != "mm" && unit != "voxels" && unit != "voxel"))
+                throw InputError(where(key) + " = \"" + *s + "\" is not a length",
+                                 "write a number of mm, or a string such as \"1.5 mm\" or \"2 voxels\"");
+            out.voxels = unit != "mm";
+        } else {
+            throw InputError(where(key) + " is not a length", "write a number of mm or a string such as \"2 voxels\"");
+        }
+        if (!(out.value > 0) || !std::isfinite(out.value))
+            throw InputError(where(key) + " must be a positive length", "give a positive number of mm or voxels");
+        return out;
+    }
+
+    std::string where(const std::string& key) const { return source_ + ": [" + name_ + "] " + key; }
+
+private:
+    const toml::table* table_;
+    std::string name_, source_;
+    std::vector<std::string> keys_;
+};
+
+} // namespace
+
+CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir, const std::string& source)
+{
+    toml::table root;
+    try {
+        root = toml::parse(text, source);
+    } catch (const toml::parse_error& e) {
+        std::ostringstream msg;
+        msg << source << ":" << e.source().begin.line << ":" << e.source().begin.column << ": " << e.description();
+        throw InputError(msg.str(), "fix the TOML syntax at that line");
+    }
+    static const std::vector<std::string> sections = {"input", "smoothing", "sizing", "output", "run"};
+    for (const auto& [key, value] : root) {
+        if (std::find(sections.begin(), sections.end(), std::string(key.str())) == sections.end() || !value.is_table())
+            throw InputError(source + ": '" + std::string(key.str()) + "' is not a known section",
+                             "the sections are: [" + join(sections) + "]");
+    }
+
+    CaseConfig config;
+    config.directory = dir;
+
+    const Section input(root["input"].as_table(), "input", source,
+                        {"phantom", "file", "voxel_size", "noise", "seed", "grid", "iso", "connectivity"});
+    config.phantom = input.get<std::string>("phantom").value_or("");
+    config.file = input.get<std::string>("file").value_or("");
+    if (config.phantom.empty() == config.file.empty())
+        throw InputError(source + ": [input] needs exactly one of 'phantom' and 'file'",
+                         "write phantom = \"sphere\" (one of: " + join(phantom_names()) +
+                             ") or file = \"image.vdb\"");
+    if (!config.phantom.empty()) make_shape(config.phantom, 1.0); // refuses unknown names with the list
+    if (!config.file.empty() && (input.has("voxel_size") || input.has("noise") || input.has("seed")))
+        throw InputError(source + ": [input] voxel_size, noise and seed apply to phantoms only",
+                         "an image file carries its own voxel size; remove those keys");
+    config.voxel_size = input.number("voxel_size", config.voxel_size, 0, 1e6, true);
+    config.noise = input.number("noise", config.noise, 0, 10);
+    const int64_t seed = input.get<int64_t>("seed").value_or(1);
+    if (seed < 0) throw InputError(input.where("seed") + " must not be negative", "give a seed >= 0");
+    config.seed = static_cast<uint64_t>(seed);
+    config.grid = input.get<std::string>("grid").value_or("");
+    if (input.has("iso")) config.iso = input.number("iso", 0, -1e30, 1e30);
+    const int64_t connectivity = input.get<int64_t>("connectivity").value_or(6);
+    if (connectivity != 6 && connectivity != 26)
+        throw InputError(input.where("connectivity") + " = " + std::to_string(connectivity) + " is not valid",
+                         "choose 6 (diagonal voxels stay apart, the default) or 26 (they join)");
+    config.connectivity = connectivity == 6 ? InsideConnectivity::Six : InsideConnectivity::TwentySix;
+
+    const Section smoothing(root["smoothing"].as_table(), "smoothing", source, {"sweeps", "omega"});
+    const int64_t sweeps = smoothing.get<int64_t>("sweeps").value_or(10);
+    if (sweeps < 0 || sweeps > 10000)
+        throw InputError(smoothing.where("sweeps") + " = " + std::to_string(sweeps) + " is out of range",
+                         "choose 0 to 10000 sweeps");
+    config.smoothing.sweeps = static_cast<int>(sweeps);
+    config.smoothing.omega = smoothing.number("omega", 1.0, 0, 1, true);
+
+    const Section sizing(root["sizing"].as_table(), "sizing", source, {"K", "M", "G", "L_min", "L_max", "curvature"});
+    config.K = sizing.number("K", config.K, 0, 1e3, true);
+    config.M = sizing.number("M", config.M, 1, 1e3);
+    config.G = sizing.number("G", config.G, 0, 1e3, true);
+    if (sizing.has("L_min")) config.L_min = sizing.length("L_min");
+    if (sizing.has("L_max")) config.L_max = sizing.length("L_max");
+    if (config.L_max && config.L_max->voxels == config.L_min.voxels && config.L_max->value < config.L_min.value)
+        throw InputError(sizing.where("L_max") + " (" + config.L_max->text() + ") is below L_min (" +
+                             config.L_min.text() + ")",
+                         "L_min <= L_max is required: the zone of scale invariance is [L_min, L_max]");
+    config.curvature = sizing.get<bool>("curvature").value_or(false);
+
+    const Section output(root["output"].as_table(), "output", source, {"surface", "msh_version", "msh_binary"});
+    if (output.has("surface")) {
+        const toml::array* files = root["output"]["surface"].as_array();
+        if (!files)
+            throw InputError(output.where("surface") + " must be a list of file names",
+                             "write surface = [\"surface.msh\", \"surface.vtk\"]");
+        config.surface_outputs.clear();
+        for (const auto& item : *files) {
+            const auto name = item.value<std::string>();
+            const std::string ext = name ? std::filesystem::path(*name).extension().string() : "";
+            if (!name || (ext != ".msh" && ext != ".vtk" && ext != ".stl") ||
+                std::filesystem::path(*name).has_parent_path())
+                throw InputError(output.where("surface") + " holds an invalid entry",
+                                 "give file names without directories ending in .msh, .vtk or .stl");
+            config.surface_outputs.push_back(*name);
+        }
+    }
+    config.msh_version = output.get<double>("msh_version").value_or(4.1);
+    if (config.msh_version != 4.1 && config.msh_version != 2.2)
+        throw InputError(output.where("msh_version") + " must be 4.1 or 2.2",
+                         "4.1 is Gmsh's current format; 2.2 is read by older tools and gmshToFoam");
+    config.msh_binary = output.get<bool>("msh_binary").value_or(false);
+
+    const Section run(root["run"].as_table(), "run", source, {"threads"});
+    const int64_t threads = run.get<int64_t>("threads").value_or(0);
+    if (threads < 0 || threads > 1024)
+        throw InputError(run.where("threads") + " is out of range", "give 0 (all cores) or a thread count");
+    config.threads = static_cast<int>(threads);
+    return config;
+}
+
+CaseConfig read_case(const std::filesystem::path& dir)
+{
+    const std::filesystem::path file = dir / "scalemesh.toml";
+    std::error_code ec;
+    if (!std::filesystem::is_directory(dir, ec))
+        throw IoError(dir.string(), "no such case directory; give a directory holding scalemesh.toml");
+    std::ifstream in(file);
+    if (!in) throw IoError(file.string(), "no case file; a case directory needs a scalemesh.toml (see docs/case-file.md)");
+    std::stringstream text;
+    text << in.rdbuf();
+    return parse_case(text.str(), dir, file.string());
+}
+
+} // namespace scalemesh

@@ -1,0 +1,66 @@
+#pragma once
+// The case file `scalemesh.toml`: what a case directory asks scalemesh to do.
+// Every key, its unit and its default are listed in docs/case-file.md; unknown
+// keys and values out of range are refused with the valid choices.
+
+#include "isosurface/marching_cubes.h"
+#include "smoothing/volume_conserving_smoothing.h"
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace scalemesh {
+
+// A length given in mm or in voxel widths ("2 voxels", "1.5 mm", or a bare
+// number meaning mm).
+struct Length {
+    double value = 0;
+    bool voxels = false;
+    // In mm, given the voxel width (mm) of the input image.
+    double mm(double voxel_width) const { return voxels ? value * voxel_width : value; }
+    std::string text() const;
+};
+
+struct CaseConfig {
+    std::filesystem::path directory; // the case directory; relative paths resolve against it
+
+    // [input]: exactly one of phantom and file.
+    std::string phantom;            // phantom shape name
+    std::filesystem::path file;     // image (.vdb) relative to the case directory
+    double voxel_size = 0.5;        // mm, phantoms only
+    double noise = 0.0;             // voxel widths, phantoms only
+    uint64_t seed = 1;              // phantoms only
+    std::string grid;               // VDB grid name; empty: the first scalar grid
+    std::optional<double> iso;      // default 0 for level sets, 0.5 for labels
+    InsideConnectivity connectivity = InsideConnectivity::Six;
+
+    // [smoothing], Algorithm 6's first step.
+    SmoothingParams smoothing{10, 1.0};
+
+    // [sizing], Algorithm 1.
+    double K = 4.2;
+    double M = 7;
+    double G = 0.85;
+    Length L_min{0.5, true};        // paper section 3: half a voxel
+    std::optional<Length> L_max;    // default: the largest extent of the surface
+    bool curvature = false;         // eq. (12)
+
+    // [output]
+    std::vector<std::string> surface_outputs{"surface.msh", "surface.vtk"};
+    double msh_version = 4.1;
+    bool msh_binary = false;
+
+    int threads = 0; // 0: all cores
+};
+
+// Reads `dir/scalemesh.toml`. Throws InputError naming the file and key for a
+// syntax error, an unknown key (listing the valid ones), a wrong type or a
+// value out of range; IoError when the file is missing.
+CaseConfig read_case(const std::filesystem::path& dir);
+
+// Parses a case file's text; `dir` is where relative paths resolve.
+CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir, const std::string& source);
+
+} // namespace scalemesh

@@ -1,0 +1,77 @@
+#pragma once
+// Running the scalemesh binary from tests, in scratch directories.
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <sys/wait.h>
+#include <vector>
+
+namespace scalemesh {
+
+// A directory removed with everything in it when the test ends.
+struct TempDir {
+    std::filesystem::path path;
+    TempDir()
+    {
+        std::random_device rd;
+        path = std::filesystem::temp_directory_path() / ("scalemesh-test-" + std::to_string(rd()) + std::to_string(rd()));
+        std::filesystem::create_directories(path);
+    }
+    ~TempDir()
+    {
+        std::error_code ignored;
+        std::filesystem::remove_all(path, ignored);
+    }
+    // Files in the directory, sorted, without the directory part.
+    std::vector<std::string> files() const
+    {
+        std::vector<std::string> out;
+        for (const auto& e : std::filesystem::recursive_directory_iterator(path))
+            out.push_back(std::filesystem::relative(e.path(), path).string());
+        std::sort(out.begin(), out.end());
+        return out;
+    }
+};
+
+struct CommandResult {
+    int exit_code = -1;
+    std::string err; // stderr
+};
+
+inline std::string quote(const std::string& s)
+{
+    std::string out = "'";
+    for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    return out + "'";
+}
+
+// Runs the binary named by $SCALEMESH_BINARY (set by ctest) with `args`.
+inline CommandResult run_scalemesh(const std::vector<std::string>& args)
+{
+    const char* binary = std::getenv("SCALEMESH_BINARY");
+    if (!binary) throw std::runtime_error("SCALEMESH_BINARY is not set; run the tests through ctest");
+    const std::filesystem::path err_file =
+        std::filesystem::temp_directory_path() / ("scalemesh-stderr-" + std::to_string(std::random_device{}()));
+    std::string cmd = quote(binary);
+    for (const std::string& a : args) cmd += " " + quote(a);
+    cmd += " </dev/null >/dev/null 2>" + quote(err_file.string());
+    const int status = std::system(cmd.c_str());
+    CommandResult r;
+    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    if (FILE* f = std::fopen(err_file.c_str(), "r")) {
+        std::array<char, 4096> buf;
+        size_t n;
+        while ((n = std::fread(buf.data(), 1, buf.size(), f)) > 0) r.err.append(buf.data(), n);
+        std::fclose(f);
+    }
+    std::filesystem::remove(err_file);
+    return r;
+}
+
+} // namespace scalemesh

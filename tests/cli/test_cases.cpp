@@ -1,0 +1,86 @@
+// Every directory under cases/ runs through `scalemesh run` (on a copy, so the
+// source tree stays clean) and its report.json meets the case's expected.toml.
+
+#include "cli_support.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <toml++/toml.h>
+
+#include <fstream>
+
+namespace scalemesh {
+namespace {
+
+std::vector<std::string> case_names()
+{
+    std::vector<std::string> names;
+    for (const auto& entry : std::filesystem::directory_iterator("cases"))
+        if (std::filesystem::exists(entry.path() / "scalemesh.toml")) names.push_back(entry.path().filename().string());
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+// [lo, hi] from an expected.toml array.
+std::pair<double, double> bounds(const toml::node& node)
+{
+    const toml::array* a = node.as_array();
+    if (!a || a->size() != 2) throw std::runtime_error("a bound must be [lo, hi]");
+    return {*a->get(0)->value<double>(), *a->get(1)->value<double>()};
+}
+
+class SampleCase : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(SampleCase, RunsAndMeetsItsExpectedBounds)
+{
+    const TempDir tmp;
+    const std::filesystem::path dir = tmp.path / GetParam();
+    std::filesystem::copy(std::filesystem::path("cases") / GetParam(), dir, std::filesystem::copy_options::recursive);
+    std::filesystem::remove(dir / "report.json");
+    const CommandResult r = run_scalemesh({"run", dir.string(), "-q"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_TRUE(r.err.empty()) << "-q must print nothing: " << r.err;
+
+    std::ifstream in(dir / "report.json");
+    ASSERT_TRUE(in) << "no report.json";
+    const nlohmann::json report = nlohmann::json::parse(in);
+    for (const auto& name : report["files"]) EXPECT_TRUE(std::filesystem::exists(dir / name.get<std::string>())) << name;
+
+    const toml::table expected = toml::parse_file((dir / "expected.toml").string());
+    ASSERT_TRUE(expected.contains("surface")) << "expected.toml needs a [surface] section";
+    const nlohmann::json& surface = report["surface"];
+    for (const auto& [key, value] : *expected["surface"].as_table()) {
+        const std::string k(key.str());
+        if (k == "closed_manifold") EXPECT_EQ(surface["closed_manifold"].get<bool>(), *value.value<bool>());
+        else if (k == "components") EXPECT_EQ(surface["components"].get<int64_t>(), *value.value<int64_t>());
+        else if (k == "euler_characteristic")
+            EXPECT_EQ(surface["euler_characteristic"].get<int64_t>(), *value.value<int64_t>());
+        else if (k == "volume_vs_voxels") {
+            const double h = report["input"]["voxel_width_mm"].get<double>();
+            const double voxels = report["input"]["inside_voxels"].get<double>() * h * h * h;
+            EXPECT_LE(std::abs(surface["enclosed_volume_mm3"].get<double>() / voxels - 1.0), *value.value<double>());
+        } else ADD_FAILURE() << "unknown key [surface] " << k << " in expected.toml";
+    }
+    if (const toml::table* sizing = expected["sizing"].as_table()) {
+        const nlohmann::json& s = report["sizing"];
+        for (const auto& [key, value] : *sizing) {
+            const std::string k(key.str());
+            if (k == "D_median_mm" || k == "d_min_mm" || k == "D_out_min_mm") {
+                const auto [lo, hi] = bounds(value);
+                const double v = k == "D_median_mm" ? s["D_mm"]["median"].get<double>()
+                                 : k == "d_min_mm"   ? s["d_mm"]["min"].get<double>()
+                                                     : s["D_out_mm"]["min"].get<double>();
+                EXPECT_GE(v, lo) << k;
+                EXPECT_LE(v, hi) << k;
+            } else if (k == "D_out_infinite") {
+                EXPECT_EQ(s["D_out_mm"]["infinite"].get<int64_t>(), s["D_out_mm"]["count"].get<int64_t>()) << k;
+            } else ADD_FAILURE() << "unknown key [sizing] " << k << " in expected.toml";
+        }
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(Cases, SampleCase, ::testing::ValuesIn(case_names()),
+                         [](const auto& info) { return info.param; });
+
+} // namespace
+} // namespace scalemesh

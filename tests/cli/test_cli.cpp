@@ -1,0 +1,164 @@
+// The command line: outputs appear complete, and bad input gets one line on
+// stderr, a non-zero exit and no output file.
+
+#include "cli_support.h"
+#include "core/surface_mesh.h"
+#include "importers/stl_importer.h"
+#include "importers/vdb_importer.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+namespace scalemesh {
+namespace {
+
+int line_count(const std::string& s) { return static_cast<int>(std::count(s.begin(), s.end(), '\n')); }
+
+int error_lines(const std::string& s)
+{
+    int n = 0;
+    for (size_t at = s.find("error"); at != std::string::npos; at = s.find("error", s.find('\n', at))) ++n;
+    return n;
+}
+
+void expect_refused(const CommandResult& r, int code, const std::string& mentions)
+{
+    EXPECT_EQ(r.exit_code, code) << r.err;
+    // Progress lines of the stages that ran may come first; the error is one
+    // line, the last.
+    EXPECT_EQ(error_lines(r.err), 1) << "one error line on stderr: " << r.err;
+    const size_t last = r.err.rfind('\n', r.err.size() - 2);
+    const std::string last_line = r.err.substr(last == std::string::npos ? 0 : last + 1);
+    EXPECT_EQ(last_line.rfind("scalemesh: error: ", 0), 0u) << r.err;
+    EXPECT_NE(last_line.find(mentions), std::string::npos) << r.err;
+}
+
+TEST(Cli, PhantomThenSurfaceInEveryFormat)
+{
+    const TempDir tmp;
+    const std::string vdb = (tmp.path / "torus.vdb").string();
+    ASSERT_EQ(run_scalemesh({"phantom", "torus", "-o", vdb, "--voxel-size", "0.5"}).exit_code, 0);
+    const auto grid = read_vdb(vdb);
+    EXPECT_DOUBLE_EQ(grid->voxelSize().x(), 0.5);
+    EXPECT_EQ(grid->getName(), "label");
+    for (const std::string ext : {".stl", ".msh", ".vtk"}) {
+        const std::string out = (tmp.path / ("torus" + ext)).string();
+        const CommandResult r = run_scalemesh({"surface", vdb, "-o", out, "-q"});
+        ASSERT_EQ(r.exit_code, 0) << r.err;
+        EXPECT_TRUE(std::filesystem::file_size(out) > 0);
+    }
+    const SurfaceMesh mesh = read_stl(tmp.path / "torus.stl");
+    const SurfaceFacts facts = surface_facts(mesh);
+    EXPECT_TRUE(facts.closed_manifold());
+    EXPECT_EQ(facts.euler_characteristic, 0);
+    // Nothing but the outputs: no temporary files left over.
+    EXPECT_EQ(tmp.files(), (std::vector<std::string>{"torus.msh", "torus.stl", "torus.vdb", "torus.vtk"}));
+}
+
+TEST(Cli, SurfaceWithSizingWritesTheFields)
+{
+    const TempDir tmp;
+    const std::string vdb = (tmp.path / "sphere.vdb").string();
+    ASSERT_EQ(run_scalemesh({"phantom", "sphere", "-o", vdb}).exit_code, 0);
+    const std::string out = (tmp.path / "sphere.vtk").string();
+    const CommandResult r = run_scalemesh({"surface", vdb, "--sizing", "-o", out});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.err.find("sizing"), std::string::npos) << "a progress line per stage: " << r.err;
+    std::ifstream in(out);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    for (const std::string field : {"SCALARS D double", "SCALARS D_out double", "SCALARS d double"})
+        EXPECT_NE(text.find(field), std::string::npos) << field;
+}
+
+TEST(Cli, RefusesBadPhantomArguments)
+{
+    const TempDir tmp;
+    const std::string out = (tmp.path / "x.vdb").string();
+    expect_refused(run_scalemesh({"phantom", "cube", "-o", out}), 2, "sphere, torus");
+    expect_refused(run_scalemesh({"phantom", "sphere", "-o", out, "--voxel-size", "-1"}), 2, "voxel size");
+    expect_refused(run_scalemesh({"phantom", "sphere", "-o", out, "--voxel-size", "0.001"}), 2, "2048");
+    expect_refused(run_scalemesh({"phantom", "sphere", "-o", (tmp.path / "x.stl").string()}), 2, ".vdb");
+    EXPECT_TRUE(tmp.files().empty());
+}
+
+TEST(Cli, RefusesBadImagesWithoutWritingOutput)
+{
+    const TempDir tmp;
+    const std::string out = (tmp.path / "out.msh").string();
+    expect_refused(run_scalemesh({"surface", (tmp.path / "missing.vdb").string(), "-o", out}), 3, "no such file");
+
+    const std::string text = (tmp.path / "text.vdb").string();
+    std::ofstream(text) << "not a vdb file\n";
+    expect_refused(run_scalemesh({"surface", text, "-o", out}), 2, "not an OpenVDB file");
+
+    const std::string vdb = (tmp.path / "tube.vdb").string();
+    ASSERT_EQ(run_scalemesh({"phantom", "tube", "-o", vdb}).exit_code, 0);
+    expect_refused(run_scalemesh({"surface", vdb, "--grid", "density", "-o", out}), 2, "'label'");
+    expect_refused(run_scalemesh({"surface", vdb, "--iso", "5", "-o", out}), 2, "no voxel is inside");
+    expect_refused(run_scalemesh({"surface", vdb, "-o", (tmp.path / "out.obj").string()}), 2, ".msh, .vtk or .stl");
+
+    // A truncated VDB keeps its magic number but not its grids.
+    const std::string truncated = (tmp.path / "truncated.vdb").string();
+    {
+        std::ifstream in(vdb, std::ios::binary);
+        std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        std::ofstream(truncated, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+    }
+    const CommandResult r = run_scalemesh({"surface", truncated, "-o", out});
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_EQ(error_lines(r.err), 1) << r.err;
+
+    const std::string empty = (tmp.path / "empty.vdb").string();
+    auto grid = openvdb::FloatGrid::create(0.0f);
+    grid->setName("label");
+    write_vdb(*grid, empty);
+    expect_refused(run_scalemesh({"surface", empty, "-o", out}), 2, "empty");
+
+    EXPECT_FALSE(std::filesystem::exists(out));
+    for (const std::string& f : tmp.files()) EXPECT_EQ(f.find("partial"), std::string::npos) << f;
+}
+
+TEST(Cli, RefusesBadCaseFilesWithoutWritingOutput)
+{
+    const TempDir tmp;
+    expect_refused(run_scalemesh({"run", (tmp.path / "nowhere").string()}), 3, "no such case directory");
+    expect_refused(run_scalemesh({"run", tmp.path.string()}), 3, "scalemesh.toml");
+
+    const auto write_case = [&](const std::string& text) { std::ofstream(tmp.path / "scalemesh.toml") << text; };
+    write_case("[input]\nphantom = \"tube\"\nvoxel_sise = 0.5\n");
+    expect_refused(run_scalemesh({"run", tmp.path.string()}), 2, "voxel_sise");
+    write_case("[input]\nphantom = \"tube\"\n[sizing]\nL_min = \"2 voxels\"\nL_max = \"1 voxels\"\n");
+    expect_refused(run_scalemesh({"run", tmp.path.string()}), 2, "L_min");
+    write_case("[input]\nphantom = \"tube\"\n[sizing]\nK = -1\n");
+    expect_refused(run_scalemesh({"run", tmp.path.string()}), 2, "K");
+    write_case("[input]\nphantom = \"tube\"\n[meshing]\nK = 1\n");
+    expect_refused(run_scalemesh({"run", tmp.path.string()}), 2, "meshing");
+    write_case("[input\nphantom = \"tube\"\n");
+    expect_refused(run_scalemesh({"run", tmp.path.string()}), 2, "scalemesh.toml:1");
+    EXPECT_EQ(tmp.files(), std::vector<std::string>{"scalemesh.toml"});
+}
+
+TEST(Cli, AFailedRunLeavesEarlierOutputsUntouched)
+{
+    const TempDir tmp;
+    std::ofstream(tmp.path / "scalemesh.toml")
+        << "[input]\nphantom = \"sphere\"\nvoxel_size = 1.0\n[output]\nsurface = [\"surface.msh\"]\n";
+    ASSERT_EQ(run_scalemesh({"run", tmp.path.string(), "-q"}).exit_code, 0);
+    const auto before = std::filesystem::last_write_time(tmp.path / "surface.msh");
+    // The next run's second output cannot be put in place (a directory holds
+    // its name): it fails after every stage ran, and must not have replaced
+    // the first output either.
+    std::filesystem::create_directory(tmp.path / "surface.vtk");
+    std::ofstream(tmp.path / "scalemesh.toml")
+        << "[input]\nphantom = \"sphere\"\nvoxel_size = 1.0\n[output]\nsurface = [\"surface.msh\", \"surface.vtk\"]\n";
+    const auto files = tmp.files();
+    const CommandResult r = run_scalemesh({"run", tmp.path.string(), "-q"});
+    EXPECT_EQ(r.exit_code, 3) << r.err;
+    EXPECT_EQ(line_count(r.err), 1) << r.err;
+    EXPECT_EQ(std::filesystem::last_write_time(tmp.path / "surface.msh"), before);
+    EXPECT_EQ(tmp.files(), files);
+}
+
+} // namespace
+} // namespace scalemesh
