@@ -59,8 +59,12 @@ inline CommandResult run_scalemesh(const std::vector<std::string>& args)
     const std::filesystem::path err_file =
         std::filesystem::temp_directory_path() / ("scalemesh-stderr-" + std::to_string(std::random_device{}()));
     std::string cmd = quote(binary);
-    for (const std::string& a : args) cmd += " " + quote(a);
-    cmd += " </dev/null >/dev/null 2>" + quote(err_file.string());
+    for (const std::string& a : args) {
+        cmd += ' ';
+        cmd += quote(a);
+    }
+    cmd += " </dev/null >/dev/null 2>";
+    cmd += quote(err_file.string());
     const int status = std::system(cmd.c_str());
     CommandResult r;
     r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
