@@ -1,0 +1,103 @@
+#include "exporters/gmsh_session.h"
+
+#include <gmsh.h>
+
+#include <atomic>
+
+namespace scalemesh {
+
+namespace {
+
+std::recursive_mutex& gmsh_mutex()
+{
+    static std::recursive_mutex mutex;
+    return mutex;
+}
+
+int g_open_sessions = 0; // guarded by gmsh_mutex()
+
+} // namespace
+
+GmshSession::GmshSession() : lock_(gmsh_mutex())
+{
+    if (g_open_sessions == 0) {
+        // No command-line arguments: the API's argument parser knows only the
+        // options of the gmsh program, and an unknown one (such as -noenv) makes
+        // it print the usage text and exit the process.
+        gmsh::initialize(0, nullptr, /*readConfigFiles=*/false);
+        started_ = true;
+    }
+    ++g_open_sessions;
+    try {
+        set_option("General.Terminal", 0);
+        set_option("General.Verbosity", 0);
+    } catch (...) {
+        --g_open_sessions;
+        if (started_) gmsh::finalize();
+        throw;
+    }
+}
+
+GmshSession::~GmshSession()
+{
+    for (auto it = saved_options_.rbegin(); it != saved_options_.rend(); ++it) {
+        try {
+            gmsh::option::setNumber(it->first, it->second);
+        } catch (...) {
+            // An option that could be read can be written back; nothing useful
+            // can be done in a destructor if Gmsh disagrees.
+        }
+    }
+    --g_open_sessions;
+    if (started_) {
+        try {
+            gmsh::finalize();
+        } catch (...) {
+            // Finalizing only frees memory; a failure there cannot be reported
+            // from a destructor and does not affect any file written.
+        }
+    }
+}
+
+void GmshSession::set_option(const std::string& name, double value)
+{
+    double previous = 0;
+    gmsh::option::getNumber(name, previous);
+    saved_options_.emplace_back(name, previous);
+    gmsh::option::setNumber(name, value);
+}
+
+ScratchModel::ScratchModel(const std::string& prefix)
+{
+    // Unique names, because gmsh::view::addModelData finds its model by name.
+    static std::atomic<int64_t> counter{0};
+    name_ = prefix + "_" + std::to_string(++counter);
+    gmsh::model::getCurrent(previous_);
+    gmsh::model::add(name_);
+}
+
+ScratchModel::~ScratchModel()
+{
+    try {
+        for (int view : views_) gmsh::view::remove(view);
+        gmsh::model::setCurrent(name_);
+        gmsh::model::remove();
+        gmsh::model::setCurrent(previous_);
+    } catch (...) {
+        // Leaving a scratch model behind costs memory only.
+    }
+}
+
+int ScratchModel::add_view(const std::string& view_name)
+{
+    const int tag = gmsh::view::add(view_name);
+    views_.push_back(tag);
+    return tag;
+}
+
+void ScratchModel::adopt_views(const std::vector<int>& tags)
+{
+    views_.insert(views_.end(), tags.begin(), tags.end());
+}
+
+} // namespace scalemesh

@@ -1,0 +1,126 @@
+#include "smoothing/volume_conserving_smoothing.h"
+
+#include "core/adjacency.h"
+#include "core/errors.h"
+
+#include <cmath>
+#include <string>
+
+namespace scalemesh {
+
+namespace {
+
+void validate(const SurfaceMesh& mesh, const SmoothingParams& params, const SmoothingConstraint* constraint)
+{
+    if (params.sweeps < 0)
+        throw InputError("smoothing sweeps is " + std::to_string(params.sweeps), "use a count >= 0 (the paper uses 10)");
+    if (!(params.omega > 0 && params.omega <= 1))
+        throw InputError("smoothing under-relaxation omega is " + std::to_string(params.omega),
+                         "use a value in (0, 1] (the paper uses 1 after marching cubes, 0.1 after remeshing)");
+    require_closed_manifold(mesh, "the surface to smooth");
+    if (!constraint) return;
+    const size_t n = mesh.points.size();
+    if (!constraint->fixed.empty() && constraint->fixed.size() != n)
+        throw InputError("smoothing constraint has " + std::to_string(constraint->fixed.size()) +
+                             " fixed flags for " + std::to_string(n) + " points",
+                         "give one flag per point, or none");
+    if (!constraint->plane_normal.empty() && constraint->plane_normal.size() != n)
+        throw InputError("smoothing constraint has " + std::to_string(constraint->plane_normal.size()) +
+                             " plane normals for " + std::to_string(n) + " points",
+                         "give one normal per point (zero for a free point), or none");
+    for (size_t i = 0; i < constraint->plane_normal.size(); ++i) {
+        const Vec3& p = constraint->plane_normal[i];
+        if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+            throw InputError("smoothing constraint plane normal of point " + std::to_string(i) + " is not finite",
+                             "give a finite normal, or zero for a free point");
+    }
+}
+
+class VolumeConservingSmoother {
+public:
+    VolumeConservingSmoother(SurfaceMesh& mesh, const SmoothingConstraint* constraint)
+        : mesh_(mesh), fans_(vertex_triangles(mesh)), neighbours_(vertex_neighbours(mesh)), constraint_(constraint)
+    {
+    }
+
+    void sweep(double omega)
+    {
+        const auto n = static_cast<int32_t>(mesh_.points.size());
+        for (int32_t i = 0; i < n; ++i) {
+            if (neighbours_.size(i) == 0 || is_fixed(i)) continue;
+            Vec3 move = omega * (neighbour_mean(i) - mesh_.points[i]);
+            move = conserving_part(move, volume_gradient(i), plane_normal(i));
+            mesh_.points[i] += move;
+        }
+    }
+
+private:
+    bool is_fixed(int32_t i) const { return constraint_ && !constraint_->fixed.empty() && constraint_->fixed[i]; }
+
+    Vec3 plane_normal(int32_t i) const
+    {
+        return constraint_ && !constraint_->plane_normal.empty() ? constraint_->plane_normal[i] : Vec3{};
+    }
+
+    Vec3 neighbour_mean(int32_t i) const
+    {
+        Vec3 sum;
+        for (const int32_t* j = neighbours_.begin(i); j != neighbours_.end(i); ++j) sum += mesh_.points[*j];
+        return sum / neighbours_.size(i);
+    }
+
+    // N_i = (1/2) sum (x_j x x_k) over the fan of i. Around a closed fan the
+    // sum is unchanged by a translation, so it is taken relative to x_i: far
+    // from the origin the absolute cross products would cancel and lose digits.
+    Vec3 volume_gradient(int32_t i) const
+    {
+        const Vec3& xi = mesh_.points[i];
+        Vec3 n;
+        for (const int32_t* f = fans_.begin(i); f != fans_.end(i); ++f) {
+            const Triangle& t = mesh_.triangles[*f];
+            const int k = t[0] == i ? 0 : (t[1] == i ? 1 : 2);
+            n += cross(mesh_.points[t[(k + 1) % 3]] - xi, mesh_.points[t[(k + 2) % 3]] - xi);
+        }
+        return 0.5 * n;
+    }
+
+    // The part of `move` that keeps the volume (orthogonal to n) and, when a
+    // plane is given, stays in the plane. The plane component is removed
+    // first, exactly; then the component along the in-plane part of n. That
+    // equals projecting onto the line orthogonal to both, and stays stable as
+    // n approaches the plane normal: the residual along n is round-off of n
+    // whatever the angle. When n is parallel to the plane normal the fan lies
+    // in the plane, and every in-plane move already keeps the volume.
+    static Vec3 conserving_part(Vec3 move, const Vec3& n, const Vec3& plane)
+    {
+        if (norm2(plane) > 0) {
+            const Vec3 p = normalized(plane);
+            move -= dot(move, p) * p;
+            const Vec3 n_in_plane = n - dot(n, p) * p;
+            if (norm2(n_in_plane) > kParallel2 * norm2(n))
+                move -= dot(move, n_in_plane) / norm2(n_in_plane) * n_in_plane;
+            return move;
+        }
+        if (norm2(n) > 0) move -= dot(move, n) / norm2(n) * n;
+        return move;
+    }
+
+    // sin^2 of the angle below which n and the plane normal count as parallel.
+    static constexpr double kParallel2 = 1e-24;
+
+    SurfaceMesh& mesh_;
+    VertexTable fans_;
+    VertexTable neighbours_;
+    const SmoothingConstraint* constraint_;
+};
+
+} // namespace
+
+void smooth_volume_conserving(SurfaceMesh& mesh, const SmoothingParams& params, const SmoothingConstraint* constraint)
+{
+    validate(mesh, params, constraint);
+    VolumeConservingSmoother smoother(mesh, constraint);
+    for (int s = 0; s < params.sweeps; ++s) smoother.sweep(params.omega);
+}
+
+} // namespace scalemesh

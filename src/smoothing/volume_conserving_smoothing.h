@@ -1,0 +1,50 @@
+#pragma once
+// Volume-conserving Laplacian smoothing of a closed surface: paper section 2
+// and Algorithm 6 ([13] Algorithm 4), 10 sweeps with omega = 1 after marching
+// cubes, 10 sweeps with omega = 0.1 after each remeshing pass.
+//
+// The enclosed volume is V = (1/3) x_i . N_i + (terms without x_i), with
+// N_i = (1/2) sum over the triangles (i, j, k) at i of (x_j x x_k) (DESIGN.md).
+// Every single node move is orthogonal to N_i, computed from the current
+// positions, so the volume is unchanged to round-off after every move.
+
+#include "core/surface_mesh.h"
+
+#include <vector>
+
+namespace scalemesh {
+
+struct SmoothingParams {
+    int sweeps = 10;    // Gauss-Seidel sweeps through all nodes, >= 0
+    double omega = 1.0; // under-relaxation of the Laplacian move, in (0, 1]
+};
+
+// Optional per-node restrictions, for caps and openings. Each vector is either
+// empty (no restriction of that kind) or holds one entry per mesh point.
+struct SmoothingConstraint {
+    std::vector<char> fixed;         // nonzero: the node never moves
+    std::vector<Vec3> plane_normal;  // zero: free; else the node moves only within the
+                                     // plane through it with this normal (any length)
+};
+
+// Smooths `mesh` in place. Each sweep visits the nodes in index order
+// (Gauss-Seidel, later nodes see earlier moves). For node i the move is
+// omega * (mean of its edge neighbours - x_i), with the component along N_i
+// removed. With a plane constraint the move is also kept in the plane: it is
+// projected orthogonally to both N_i and the plane normal (the line
+// orthogonal to both); when the two are parallel to round-off the fan already
+// lies in the plane and the move is kept in the plane only, which is then
+// orthogonal to N_i as well. Nodes without triangles are left alone.
+//
+// Guarantees: the signed volume (surface_facts) is conserved to round-off,
+// fixed nodes keep their bit-exact positions, plane-constrained nodes stay in
+// their plane to round-off, connectivity is untouched, and the result is a
+// deterministic function of the input (bit-identical on every run).
+//
+// Throws InputError when the mesh is not a closed, oriented 2-manifold, when
+// sweeps < 0 or omega is outside (0, 1], or when a constraint vector is
+// neither empty nor the size of mesh.points.
+void smooth_volume_conserving(SurfaceMesh& mesh, const SmoothingParams& params,
+                              const SmoothingConstraint* constraint = nullptr);
+
+} // namespace scalemesh
