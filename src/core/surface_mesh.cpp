@@ -151,6 +151,13 @@ SurfaceFacts surface_facts(const SurfaceMesh& mesh)
     return facts;
 }
 
+bool orient_outward(SurfaceMesh& mesh)
+{
+    if (signed_volume(mesh) >= 0) return false;
+    for (Triangle& t : mesh.triangles) std::swap(t[1], t[2]);
+    return true;
+}
+
 void require_closed_manifold(const SurfaceMesh& mesh, const std::string& what)
 {
     if (mesh.triangles.empty())

@@ -58,6 +58,11 @@ std::vector<int32_t> triangle_components(const SurfaceMesh& mesh, int32_t* count
 // Axis-aligned bounding box of the points.
 void bounding_box(const SurfaceMesh& mesh, Vec3& lo, Vec3& hi);
 
+// Reverses every triangle when the enclosed volume is negative (a surface
+// wound inwards, as some STL files are), so normals point out. Assumes a
+// consistently oriented closed surface. Returns whether it flipped.
+bool orient_outward(SurfaceMesh& mesh);
+
 // Throws InputError naming the open or non-manifold edges (count and the first
 // few coordinates) when the surface is not a closed, oriented 2-manifold.
 void require_closed_manifold(const SurfaceMesh& mesh, const std::string& what);

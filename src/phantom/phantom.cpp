@@ -239,7 +239,11 @@ openvdb::FloatGrid::Ptr voxelize(const Shape& shape, const PhantomParams& params
     }
 
     auto grid = openvdb::FloatGrid::create(0.0f);
-    grid->setTransform(openvdb::math::Transform::createLinearTransform(h));
+    // Voxel i spans [i h, (i + 1) h]: its centre is at (i + 1/2) h, so shape
+    // boundaries at round millimetres never fall on voxel centres.
+    auto transform = openvdb::math::Transform::createLinearTransform(h);
+    transform->postTranslate(openvdb::Vec3d(0.5 * h));
+    grid->setTransform(transform);
     grid->setName("label");
     grid->setGridClass(openvdb::GRID_FOG_VOLUME);
 
@@ -261,7 +265,7 @@ openvdb::FloatGrid::Ptr voxelize(const Shape& shape, const PhantomParams& params
                     int inside = 0;
                     for (openvdb::Index n = 0; n < Leaf::SIZE; ++n) {
                         const openvdb::Coord c = leaf->offsetToGlobalCoord(n);
-                        double s = shape.sdf({c.x() * h, c.y() * h, c.z() * h});
+                        double s = shape.sdf({(c.x() + 0.5) * h, (c.y() + 0.5) * h, (c.z() + 0.5) * h});
                         if (params.noise > 0) s += params.noise * h * voxel_noise(c.x(), c.y(), c.z(), params.seed);
                         if (s < 0) {
                             leaf->setValueOn(n, 1.0f);

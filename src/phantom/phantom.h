@@ -46,8 +46,9 @@ const std::vector<std::string>& phantom_names();
 // voxel widths, so it needs the voxel size. Throws InputError on an unknown name.
 std::unique_ptr<Shape> make_shape(const std::string& name, double voxel_size);
 
-// Binary label grid: value 1 (active) inside, 0 (background) outside, voxel
-// centres at integer index times voxel_size; grid name "label", class fog.
+// Binary label grid: value 1 (active) inside, 0 (background) outside; voxel
+// (i, j, k) spans [i h, (i+1) h] x ... so its centre is at ((i, j, k) + 1/2) h,
+// as the grid's transform says; grid name "label", class fog.
 // Throws InputError for a non-positive voxel size or one so small the box
 // would exceed 2048 voxels per side.
 openvdb::FloatGrid::Ptr voxelize(const Shape& shape, const PhantomParams& params);

@@ -88,11 +88,13 @@ SurfaceRun run_surface_pipeline(const CaseConfig& config, const SurfaceRunOption
         StageClock clock(run, listener, "import");
         surface = read_stl(file);
         require_closed_manifold(surface, file.string());
+        const bool flipped = orient_outward(surface);
         run.input = file.string();
         run.input_checksum = file_checksum(file);
         run.voxel_width = mean_edge_length(surface);
         run.isosurface = surface_facts(surface);
-        clock.done("read " + std::to_string(surface.triangles.size()) + " triangles");
+        clock.done("read " + std::to_string(surface.triangles.size()) + " triangles" +
+                   (flipped ? ", wound inwards: reversed" : ""));
     } else {
         openvdb::FloatGrid::Ptr grid;
         {

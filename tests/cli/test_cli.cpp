@@ -71,6 +71,22 @@ TEST(Cli, SurfaceWithSizingWritesTheFields)
         EXPECT_NE(text.find(field), std::string::npos) << field;
 }
 
+TEST(Cli, SurfaceInputIsOrientedOutwardAndSized)
+{
+    // The shared aorta surface is closed and genus 0 but wound inwards.
+    const TempDir tmp;
+    const std::string out = (tmp.path / "aorta.stl").string();
+    const CommandResult r = run_scalemesh({"surface", "../shared/data/vmtk_aorta_capped.stl", "--sizing",
+                                           "--L-min", "0.5 mm", "--L-max", "40 mm", "-o", out});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.err.find("reversed"), std::string::npos) << r.err;
+    const SurfaceFacts facts = surface_facts(read_stl(out));
+    EXPECT_TRUE(facts.closed_manifold());
+    EXPECT_EQ(facts.euler_characteristic, 2);
+    EXPECT_EQ(facts.triangles, 12932);
+    EXPECT_GT(facts.signed_volume, 13000.0);
+}
+
 TEST(Cli, RefusesBadPhantomArguments)
 {
     const TempDir tmp;

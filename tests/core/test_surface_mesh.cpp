@@ -1,0 +1,85 @@
+// Surface facts on meshes whose answer is known by construction.
+
+#include "core/adjacency.h"
+#include "core/errors.h"
+#include "core/surface_mesh.h"
+
+#include <gtest/gtest.h>
+
+namespace scalemesh {
+namespace {
+
+SurfaceMesh octahedron(double r = 1.0, Vec3 c = {})
+{
+    SurfaceMesh m;
+    m.points = {c + Vec3{r, 0, 0}, c + Vec3{-r, 0, 0}, c + Vec3{0, r, 0},
+                c + Vec3{0, -r, 0}, c + Vec3{0, 0, r}, c + Vec3{0, 0, -r}};
+    m.triangles = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4}, {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+    return m;
+}
+
+TEST(SurfaceFacts, OctahedronIsAClosedSphereWithItsVolume)
+{
+    const SurfaceFacts f = surface_facts(octahedron(2.0));
+    EXPECT_TRUE(f.closed_manifold());
+    EXPECT_EQ(f.vertices, 6);
+    EXPECT_EQ(f.edges, 12);
+    EXPECT_EQ(f.euler_characteristic, 2);
+    EXPECT_EQ(f.components, 1);
+    EXPECT_NEAR(f.signed_volume, 4.0 / 3.0 * 8.0, 1e-12); // 4/3 r^3
+}
+
+TEST(SurfaceFacts, DetectsHolesFlipsAndPinchedVertices)
+{
+    SurfaceMesh open = octahedron();
+    open.triangles.pop_back();
+    EXPECT_EQ(surface_facts(open).boundary_edges, 3);
+    EXPECT_THROW(require_closed_manifold(open, "test"), InputError);
+
+    SurfaceMesh flipped = octahedron();
+    std::swap(flipped.triangles[0][1], flipped.triangles[0][2]);
+    EXPECT_EQ(surface_facts(flipped).misoriented_edges, 3);
+
+    // Two octahedra sharing one vertex: every edge fine, one vertex pinched.
+    SurfaceMesh a = octahedron(1.0), b = octahedron(1.0, {2, 0, 0});
+    const auto offset = static_cast<int32_t>(a.points.size());
+    for (Triangle t : b.triangles) {
+        for (int32_t& v : t) v = (v == 1) ? 0 : v + offset; // b's vertex (1, 0, 0) is a's vertex 0
+        a.triangles.push_back(t);
+    }
+    a.points.insert(a.points.end(), b.points.begin(), b.points.end());
+    const SurfaceFacts f = surface_facts(a);
+    EXPECT_EQ(f.boundary_edges, 0);
+    EXPECT_EQ(f.nonmanifold_edges, 0);
+    EXPECT_EQ(f.nonmanifold_vertices, 1);
+    EXPECT_FALSE(f.closed_manifold());
+}
+
+TEST(SurfaceFacts, OrientOutwardFlipsOnlyInwardSurfaces)
+{
+    SurfaceMesh m = octahedron();
+    EXPECT_FALSE(orient_outward(m));
+    for (Triangle& t : m.triangles) std::swap(t[0], t[1]);
+    EXPECT_LT(signed_volume(m), 0);
+    EXPECT_TRUE(orient_outward(m));
+    EXPECT_GT(signed_volume(m), 0);
+    EXPECT_TRUE(surface_facts(m).closed_manifold());
+}
+
+TEST(Adjacency, NeighboursAndFansOfTheOctahedron)
+{
+    const SurfaceMesh m = octahedron();
+    const VertexTable n = vertex_neighbours(m);
+    const VertexTable f = vertex_triangles(m);
+    for (int32_t v = 0; v < 6; ++v) {
+        EXPECT_EQ(n.size(v), 4);
+        EXPECT_EQ(f.size(v), 4);
+        EXPECT_TRUE(std::is_sorted(n.begin(v), n.end(v)));
+        // The opposite vertex (v ^ 1) is the one not joined to v.
+        EXPECT_EQ(std::find(n.begin(v), n.end(v), v ^ 1), n.end(v));
+    }
+    EXPECT_EQ(unique_edges(m).size(), 12u);
+}
+
+} // namespace
+} // namespace scalemesh
