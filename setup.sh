@@ -41,7 +41,7 @@ case "${1:-run}" in
     ctest --test-dir "$build" --output-on-failure -j "$(nproc)" --timeout 900
     ;;
   bench)
-    "$build/bench/bench_marching_cubes"
+    "$build/bench/bench_surface" bench/results-surface.json
     ;;
   *)
     echo "usage: bash setup.sh [run|test|bench]" >&2

@@ -57,18 +57,51 @@ double signed_volume(const SurfaceMesh& mesh)
     return six_volume / 6.0;
 }
 
+namespace {
+
+// The triangles of v's fan that hold the edge {v, w}, and how they traverse it.
+struct FanEdge {
+    int32_t w;
+    int32_t triangle;
+    bool outgoing; // the triangle runs v -> w
+};
+
+// Directed fan edges of vertex v, sorted by the other end.
+void fan_edges(const SurfaceMesh& mesh, const VertexTable& fans, int32_t v, std::vector<FanEdge>& out)
+{
+    out.clear();
+    for (const int32_t* f = fans.begin(v); f != fans.end(v); ++f) {
+        const Triangle& t = mesh.triangles[*f];
+        for (int k = 0; k < 3; ++k) {
+            if (t[k] != v) continue;
+            out.push_back({t[(k + 1) % 3], *f, true});
+            out.push_back({t[(k + 2) % 3], *f, false});
+        }
+    }
+    std::sort(out.begin(), out.end(), [](const FanEdge& a, const FanEdge& b) {
+        return a.w != b.w ? a.w < b.w : a.triangle < b.triangle;
+    });
+}
+
+} // namespace
+
 std::vector<int32_t> triangle_components(const SurfaceMesh& mesh, int32_t* count)
 {
     const auto nt = static_cast<int32_t>(mesh.triangles.size());
     std::vector<int32_t> parent(nt);
     std::iota(parent.begin(), parent.end(), 0);
-    const std::vector<DirectedEdge> edges = sorted_directed_edges(mesh);
-    for (size_t i = 1; i < edges.size(); ++i)
-        if (edges[i].lo() == edges[i - 1].lo() && edges[i].hi() == edges[i - 1].hi()) {
-            const int32_t ra = find_root(parent, edges[i].triangle);
-            const int32_t rb = find_root(parent, edges[i - 1].triangle);
-            if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
-        }
+    const VertexTable fans = vertex_triangles(mesh);
+    std::vector<FanEdge> edges;
+    for (int32_t v = 0; v < static_cast<int32_t>(mesh.points.size()); ++v) {
+        fan_edges(mesh, fans, v, edges);
+        // Triangles sharing the edge {v, w} are adjacent in the sorted list.
+        for (size_t i = 1; i < edges.size(); ++i)
+            if (edges[i].w == edges[i - 1].w && edges[i].w > v) {
+                const int32_t ra = find_root(parent, edges[i].triangle);
+                const int32_t rb = find_root(parent, edges[i - 1].triangle);
+                if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
+            }
+    }
     std::vector<int32_t> label(nt, -1), root_label(nt, -1);
     int32_t n = 0;
     for (int32_t f = 0; f < nt; ++f) {
@@ -106,39 +139,53 @@ SurfaceFacts surface_facts(const SurfaceMesh& mesh)
     }
     facts.vertices = std::count(used.begin(), used.end(), 1);
 
-    const std::vector<DirectedEdge> edges = sorted_directed_edges(mesh);
-    for (size_t i = 0; i < edges.size();) {
-        size_t j = i;
-        while (j < edges.size() && edges[j].lo() == edges[i].lo() && edges[j].hi() == edges[i].hi()) ++j;
-        const size_t count = j - i;
-        ++facts.edges;
-        if (count == 1) ++facts.boundary_edges;
-        else if (count > 2) ++facts.nonmanifold_edges;
-        else if (edges[i].a == edges[i + 1].a) ++facts.misoriented_edges;
-        i = j;
-    }
-
-    // A vertex is manifold when the link edges of its triangle fan form one cycle.
+    // Edges and vertices are judged locally, from each vertex's fan: an edge
+    // {v, w} (counted at its lower end) is manifold and consistently oriented
+    // when exactly one fan triangle runs v -> w and one runs w -> v; a vertex
+    // is manifold when its link edges form a single cycle.
     const VertexTable fans = vertex_triangles(mesh);
-    std::unordered_map<int32_t, int32_t> next;
+    std::vector<FanEdge> edges;
+    std::vector<std::pair<int32_t, int32_t>> link;
     for (int32_t v = 0; v < static_cast<int32_t>(mesh.points.size()); ++v) {
         if (fans.size(v) == 0) continue;
-        next.clear();
-        bool ok = true;
+        fan_edges(mesh, fans, v, edges);
+        for (size_t i = 0; i < edges.size();) {
+            size_t j = i;
+            int outgoing = 0;
+            while (j < edges.size() && edges[j].w == edges[i].w) outgoing += edges[j++].outgoing;
+            if (edges[i].w > v) {
+                const size_t n = j - i;
+                ++facts.edges;
+                if (n == 1) ++facts.boundary_edges;
+                else if (n > 2) ++facts.nonmanifold_edges;
+                else if (outgoing != 1) ++facts.misoriented_edges;
+            }
+            i = j;
+        }
+
+        link.clear();
         for (const int32_t* f = fans.begin(v); f != fans.end(v); ++f) {
             const Triangle& t = mesh.triangles[*f];
             const int k = t[0] == v ? 0 : (t[1] == v ? 1 : 2);
-            if (!next.emplace(t[(k + 1) % 3], t[(k + 2) % 3]).second) ok = false;
+            link.emplace_back(t[(k + 1) % 3], t[(k + 2) % 3]);
         }
+        std::sort(link.begin(), link.end());
+        bool ok = std::adjacent_find(link.begin(), link.end(), [](const auto& a, const auto& b) {
+                      return a.first == b.first;
+                  }) == link.end();
         if (ok) {
-            int32_t start = next.begin()->first, cur = start, steps = 0;
+            int32_t cur = link.front().first;
+            size_t steps = 0;
             do {
-                auto it = next.find(cur);
-                if (it == next.end()) { ok = false; break; }
+                auto it = std::lower_bound(link.begin(), link.end(), std::make_pair(cur, INT32_MIN));
+                if (it == link.end() || it->first != cur) {
+                    ok = false;
+                    break;
+                }
                 cur = it->second;
                 ++steps;
-            } while (cur != start && steps <= fans.size(v));
-            ok = ok && cur == start && steps == fans.size(v);
+            } while (cur != link.front().first && steps <= link.size());
+            ok = ok && steps == link.size();
         }
         if (!ok) ++facts.nonmanifold_vertices;
     }
