@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -169,7 +170,12 @@ std::vector<VertexField> surface_fields(const SurfaceRun& run)
     std::vector<VertexField> fields;
     if (run.sizing) {
         fields.push_back({"D", run.sizing->D});
-        fields.push_back({"D_out", run.sizing->D_out});
+        // Readers of legacy VTK and MSH choke on "inf": an escaped outward
+        // ray (D_out infinite) is written as -1.
+        std::vector<double> D_out = run.sizing->D_out;
+        for (double& v : D_out)
+            if (!std::isfinite(v)) v = -1.0;
+        fields.push_back({"D_out", std::move(D_out)});
         fields.push_back({"d", run.sizing->d});
     }
     return fields;

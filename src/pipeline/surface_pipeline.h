@@ -45,7 +45,8 @@ struct SurfaceRunOptions {
 SurfaceRun run_surface_pipeline(const CaseConfig& config, const SurfaceRunOptions& options,
                                 const StageListener& listener = {});
 
-// Per-vertex fields of a run for export: D, D_out and d when sized.
+// Per-vertex fields of a run for export: D, D_out and d (mm) when sized;
+// D_out is -1 where the outward ray escapes (infinite).
 std::vector<VertexField> surface_fields(const SurfaceRun& run);
 
 } // namespace scalemesh
