@@ -37,8 +37,11 @@ struct FeatureSize {
 
 // Algorithm 1 exactly: d = D; d = min(L_max, d); d = max(L_min, d);
 // d = min(d, 2 (M/K) D_out); then gradient limiting over the directed surface
-// edges with a mutable max-priority queue ranked by
-// excess(i, j) = d_i - (d_j + G |x_i - x_j|), holding only positive excess.
+// edges: an edge i -> j with positive excess(i, j) = d_i - (d_j + G |x_i - x_j|)
+// is relaxed by d_i = d_j + G |x_i - x_j| until no edge has positive excess.
+// The paper pops the edge of largest excess; every order ends at the same
+// field (below), and a mutable queue of nodes by tentative d, smallest first
+// (Dijkstra's order), relaxes each edge once instead of several times.
 //
 // Guarantees on return, for every surface edge (i, j):
 //   |d_i - d_j| <= G |x_i - x_j| (to round-off of the sum), and

@@ -48,13 +48,65 @@ public:
         const auto n = static_cast<int32_t>(mesh_.points.size());
         for (int32_t i = 0; i < n; ++i) {
             if (neighbours_.size(i) == 0 || is_fixed(i)) continue;
-            Vec3 move = omega * (neighbour_mean(i) - mesh_.points[i]);
-            move = conserving_part(move, volume_gradient(i), plane_normal(i));
-            mesh_.points[i] += move;
+            const Vec3 move = omega * (neighbour_mean(i) - mesh_.points[i]);
+            const Vec3 N = volume_gradient(i);
+            if (is_free(i) && relax_pair(i, move, N, omega)) continue;
+            mesh_.points[i] += conserving_part(move, N, plane_normal(i));
         }
     }
 
 private:
+    bool is_free(int32_t i) const { return !is_fixed(i) && norm2(plane_normal(i)) == 0; }
+
+    // Two-node relaxation of [13]: nodes i and j make their Laplacian moves
+    // d_i and d_j in full, normal parts included, and then one shared move
+    // h n that puts the volume back. Moving only i and j changes the volume
+    // by (d_i . N_i + d_j . N_j) / 3 + d_i . (d_j x v) / 6, v = x_p - x_q the
+    // vertices opposite the edge (p in the triangle running i -> j), and a
+    // shared move h n adds h n . A with A = (N_i + N_j) / 3 + v x (d_i - d_j) / 6
+    // (no h^2 term: n . (n x v) = 0), so h = -change / |A| along n = A / |A|
+    // restores it exactly. Unlike a single node, a pair can trade volume
+    // between its nodes, which is what lets a spike come down. The partner
+    // is the free neighbour whose own Laplacian move changes the volume most
+    // in the opposite sense; without one, i falls back to the single-node move.
+    bool relax_pair(int32_t i, const Vec3& d_i, const Vec3& N_i, double omega)
+    {
+        const double change_i = dot(d_i, N_i);
+        int32_t j = -1;
+        Vec3 d_j, N_j;
+        double best = 0;
+        for (const int32_t* k = neighbours_.begin(i); k != neighbours_.end(i); ++k) {
+            if (!is_free(*k)) continue;
+            const Vec3 d_k = omega * (neighbour_mean(*k) - mesh_.points[*k]);
+            const Vec3 N_k = volume_gradient(*k);
+            const double opposition = -change_i * dot(d_k, N_k);
+            if (opposition > best) best = opposition, j = *k, d_j = d_k, N_j = N_k;
+        }
+        if (j < 0) return false;
+
+        int32_t p = -1, q = -1;
+        for (const int32_t* f = fans_.begin(i); f != fans_.end(i); ++f) {
+            const Triangle& t = mesh_.triangles[*f];
+            const int k = t[0] == i ? 0 : (t[1] == i ? 1 : 2);
+            if (t[(k + 1) % 3] == j) p = t[(k + 2) % 3];
+            if (t[(k + 2) % 3] == j) q = t[(k + 1) % 3];
+        }
+        if (p < 0 || q < 0) return false;
+        const Vec3 v = mesh_.points[p] - mesh_.points[q];
+
+        const double change = (change_i + dot(d_j, N_j)) / 3.0 + dot(d_i, cross(d_j, v)) / 6.0;
+        const Vec3 A = (N_i + N_j) / 3.0 + cross(v, d_i - d_j) / 6.0;
+        const double length = norm(A);
+        // A vanishes only for a degenerate pair; leave it to the single-node move.
+        if (!(length > kTinyGradient * (norm(N_i) + norm(N_j)))) return false;
+        const Vec3 shared = (-change / length) * (A / length);
+        mesh_.points[i] += d_i + shared;
+        mesh_.points[j] += d_j + shared;
+        return true;
+    }
+
+    static constexpr double kTinyGradient = 1e-12;
+
     bool is_fixed(int32_t i) const { return constraint_ && !constraint_->fixed.empty() && constraint_->fixed[i]; }
 
     Vec3 plane_normal(int32_t i) const

@@ -5,8 +5,14 @@
 //
 // The enclosed volume is V = (1/3) x_i . N_i + (terms without x_i), with
 // N_i = (1/2) sum over the triangles (i, j, k) at i of (x_j x x_k) (DESIGN.md).
-// Every single node move is orthogonal to N_i, computed from the current
-// positions, so the volume is unchanged to round-off after every move.
+// Free nodes are relaxed in pairs, as [13] does for surfaces: a node and the
+// neighbour whose Laplacian move changes the volume most in the opposite
+// sense both make their full Laplacian moves, then one shared correction
+// that restores the volume exactly (the change is linear in it). A single
+// node moved orthogonally to N_i keeps the volume too, but cannot move along
+// the normal at all, so it hardly removes the marching cubes staircase; it is
+// the fallback for constrained nodes and for nodes without such a partner.
+// Either way the volume is unchanged to round-off after every move.
 
 #include "core/surface_mesh.h"
 
@@ -28,8 +34,9 @@ struct SmoothingConstraint {
 };
 
 // Smooths `mesh` in place. Each sweep visits the nodes in index order
-// (Gauss-Seidel, later nodes see earlier moves). For node i the move is
-// omega * (mean of its edge neighbours - x_i), with the component along N_i
+// (Gauss-Seidel, later nodes see earlier moves). The Laplacian move of node i
+// is omega * (mean of its edge neighbours - x_i). A free node is relaxed with
+// a free partner as above; otherwise its move has the component along N_i
 // removed. With a plane constraint the move is also kept in the plane: it is
 // projected orthogonally to both N_i and the plane normal (the line
 // orthogonal to both); when the two are parallel to round-off the fan already
