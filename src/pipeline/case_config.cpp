@@ -154,13 +154,14 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
                          "choose 6 (diagonal voxels stay apart, the default) or 26 (they join)");
     config.connectivity = connectivity == 6 ? InsideConnectivity::Six : InsideConnectivity::TwentySix;
 
-    const Section smoothing(root["smoothing"].as_table(), "smoothing", source, {"sweeps", "omega"});
+    const Section smoothing(root["smoothing"].as_table(), "smoothing", source, {"sweeps", "omega", "max_displacement"});
     const int64_t sweeps = smoothing.get<int64_t>("sweeps").value_or(10);
     if (sweeps < 0 || sweeps > 10000)
         throw InputError(smoothing.where("sweeps") + " = " + std::to_string(sweeps) + " is out of range",
                          "choose 0 to 10000 sweeps");
     config.smoothing.sweeps = static_cast<int>(sweeps);
     config.smoothing.omega = smoothing.number("omega", 1.0, 0, 1, true);
+    if (smoothing.has("max_displacement")) config.smoothing_reach = smoothing.length("max_displacement");
 
     const Section sizing(root["sizing"].as_table(), "sizing", source, {"K", "M", "G", "L_min", "L_max", "curvature"});
     config.K = sizing.number("K", config.K, 0, 1e3, true);

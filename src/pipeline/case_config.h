@@ -36,8 +36,10 @@ struct CaseConfig {
     std::optional<double> iso;      // default 0 for level sets, 0.5 for labels
     InsideConnectivity connectivity = InsideConnectivity::Six;
 
-    // [smoothing], Algorithm 6's first step.
-    SmoothingParams smoothing{10, 1.0};
+    // [smoothing], Algorithm 6's first step; max_displacement is set from
+    // smoothing_reach once the voxel width is known.
+    SmoothingParams smoothing{10, 1.0, 0.0};
+    Length smoothing_reach{0.5, true}; // how far a node may move from where marching cubes put it
 
     // [sizing], Algorithm 1.
     double K = 4.2;

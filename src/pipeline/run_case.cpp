@@ -71,6 +71,7 @@ std::string report_json(const CaseConfig& config, const SurfaceRun& run,
                             {"curvature", config.curvature},
                             {"smoothing_sweeps", config.smoothing.sweeps},
                             {"smoothing_omega", config.smoothing.omega},
+                            {"smoothing_max_displacement", config.smoothing_reach.text()},
                             {"connectivity", config.connectivity == InsideConnectivity::Six ? 6 : 26}};
     nlohmann::json stages = nlohmann::json::array();
     for (const StageTime& s : run.stages) stages.push_back({{"stage", s.name}, {"seconds", s.seconds}, {"summary", s.summary}});

@@ -126,7 +126,9 @@ SurfaceRun run_surface_pipeline(const CaseConfig& config, const SurfaceRunOption
 
     {
         StageClock clock(run, listener, "smoothing");
-        smooth_volume_conserving(surface, config.smoothing);
+        SmoothingParams smoothing = config.smoothing;
+        smoothing.max_displacement = config.smoothing_reach.mm(run.voxel_width);
+        smooth_volume_conserving(surface, smoothing);
         run.facts = surface_facts(surface);
         clock.done(std::to_string(config.smoothing.sweeps) + " sweeps, omega " + std::to_string(config.smoothing.omega) +
                    ", volume change " + std::to_string(run.facts.signed_volume - run.isosurface.signed_volume) + " mm^3");

@@ -3,6 +3,7 @@
 #include "core/adjacency.h"
 #include "core/errors.h"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -17,6 +18,9 @@ void validate(const SurfaceMesh& mesh, const SmoothingParams& params, const Smoo
     if (!(params.omega > 0 && params.omega <= 1))
         throw InputError("smoothing under-relaxation omega is " + std::to_string(params.omega),
                          "use a value in (0, 1] (the paper uses 1 after marching cubes, 0.1 after remeshing)");
+    if (!(params.max_displacement >= 0) || !std::isfinite(params.max_displacement))
+        throw InputError("smoothing max_displacement is " + std::to_string(params.max_displacement),
+                         "use a distance >= 0 in mm (0: unbounded)");
     require_closed_manifold(mesh, "the surface to smooth");
     if (!constraint) return;
     const size_t n = mesh.points.size();
@@ -38,8 +42,9 @@ void validate(const SurfaceMesh& mesh, const SmoothingParams& params, const Smoo
 
 class VolumeConservingSmoother {
 public:
-    VolumeConservingSmoother(SurfaceMesh& mesh, const SmoothingConstraint* constraint)
-        : mesh_(mesh), fans_(vertex_triangles(mesh)), neighbours_(vertex_neighbours(mesh)), constraint_(constraint)
+    VolumeConservingSmoother(SurfaceMesh& mesh, const SmoothingConstraint* constraint, double max_displacement)
+        : mesh_(mesh), fans_(vertex_triangles(mesh)), neighbours_(vertex_neighbours(mesh)), constraint_(constraint),
+          start_(max_displacement > 0 ? mesh.points : std::vector<Vec3>{}), reach2_(max_displacement * max_displacement)
     {
     }
 
@@ -51,7 +56,7 @@ public:
             const Vec3 move = omega * (neighbour_mean(i) - mesh_.points[i]);
             const Vec3 N = volume_gradient(i);
             if (is_free(i) && relax_pair(i, move, N, omega)) continue;
-            mesh_.points[i] += conserving_part(move, N, plane_normal(i));
+            mesh_.points[i] += within_reach(i, conserving_part(move, N, plane_normal(i)));
         }
     }
 
@@ -100,9 +105,25 @@ private:
         // A vanishes only for a degenerate pair; leave it to the single-node move.
         if (!(length > kTinyGradient * (norm(N_i) + norm(N_j)))) return false;
         const Vec3 shared = (-change / length) * (A / length);
-        mesh_.points[i] += d_i + shared;
-        mesh_.points[j] += d_j + shared;
+        const Vec3 xi = mesh_.points[i] + d_i + shared, xj = mesh_.points[j] + d_j + shared;
+        if (!reachable(i, xi) || !reachable(j, xj)) return false;
+        mesh_.points[i] = xi;
+        mesh_.points[j] = xj;
         return true;
+    }
+
+    bool reachable(int32_t i, const Vec3& x) const { return start_.empty() || norm2(x - start_[i]) <= reach2_; }
+
+    // The longest part t * move, t in [0, 1], that keeps node i within reach
+    // of its start (the node is within reach before the move).
+    Vec3 within_reach(int32_t i, const Vec3& move) const
+    {
+        if (reachable(i, mesh_.points[i] + move)) return move;
+        // |o + t m|^2 = reach^2 with o the current offset from the start.
+        const Vec3 o = mesh_.points[i] - start_[i];
+        const double a = norm2(move), b = dot(o, move), c = norm2(o) - reach2_;
+        const double t = (-b + std::sqrt(std::max(0.0, b * b - a * c))) / a;
+        return std::clamp(t, 0.0, 1.0) * move;
     }
 
     static constexpr double kTinyGradient = 1e-12;
@@ -164,6 +185,8 @@ private:
     VertexTable fans_;
     VertexTable neighbours_;
     const SmoothingConstraint* constraint_;
+    std::vector<Vec3> start_; // starting positions, kept only when the reach is bounded
+    double reach2_;
 };
 
 } // namespace
@@ -171,7 +194,7 @@ private:
 void smooth_volume_conserving(SurfaceMesh& mesh, const SmoothingParams& params, const SmoothingConstraint* constraint)
 {
     validate(mesh, params, constraint);
-    VolumeConservingSmoother smoother(mesh, constraint);
+    VolumeConservingSmoother smoother(mesh, constraint, params.max_displacement);
     for (int s = 0; s < params.sweeps; ++s) smoother.sweep(params.omega);
 }
 

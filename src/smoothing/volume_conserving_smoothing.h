@@ -23,6 +23,7 @@ namespace scalemesh {
 struct SmoothingParams {
     int sweeps = 10;    // Gauss-Seidel sweeps through all nodes, >= 0
     double omega = 1.0; // under-relaxation of the Laplacian move, in (0, 1]
+    double max_displacement = 0; // mm from a node's starting position; 0 = unbounded
 };
 
 // Optional per-node restrictions, for caps and openings. Each vector is either
@@ -43,13 +44,19 @@ struct SmoothingConstraint {
 // lies in the plane and the move is kept in the plane only, which is then
 // orthogonal to N_i as well. Nodes without triangles are left alone.
 //
+// With max_displacement > 0 no node ends farther than that from where it
+// started: a pair move that would take a node farther is not made (the node
+// falls back to the single-node move), and a single-node move is shortened
+// along its own direction, which keeps it orthogonal to N_i.
+//
 // Guarantees: the signed volume (surface_facts) is conserved to round-off,
 // fixed nodes keep their bit-exact positions, plane-constrained nodes stay in
 // their plane to round-off, connectivity is untouched, and the result is a
 // deterministic function of the input (bit-identical on every run).
 //
 // Throws InputError when the mesh is not a closed, oriented 2-manifold, when
-// sweeps < 0 or omega is outside (0, 1], or when a constraint vector is
+// sweeps < 0, omega is outside (0, 1], max_displacement is negative or not
+// finite, or when a constraint vector is
 // neither empty nor the size of mesh.points.
 void smooth_volume_conserving(SurfaceMesh& mesh, const SmoothingParams& params,
                               const SmoothingConstraint* constraint = nullptr);

@@ -19,7 +19,7 @@ TEST(SizingCurvature, SphereRadius)
     const std::vector<double> radius = curvature_radius(mesh, synthetic_normals(mesh));
     double worst = 0;
     for (double rc : radius) worst = std::max(worst, std::abs(rc - R) / R);
-    RecordProperty("worst_relative_error", std::to_string(worst));
+    RecordProperty("worst_relative_error", test::figure(worst));
     EXPECT_LE(worst, 0.02);
 }
 

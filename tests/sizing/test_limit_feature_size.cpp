@@ -93,7 +93,7 @@ TEST(FeatureSizeLimit, GradientBoundHoldsOnEveryEdge)
     ASSERT_GT(max_gradient_violation(mesh, clamped(D, D_out, p), p.G), 1.0); // the input is rough
     const std::vector<double> d = limit_feature_size(mesh, D, D_out, p);
     const double worst = max_gradient_violation(mesh, d, p.G);
-    RecordProperty("max_gradient_violation", std::to_string(worst));
+    RecordProperty("max_gradient_violation", test::figure(worst));
     EXPECT_LE(worst, 1e-12);
 }
 
@@ -147,7 +147,7 @@ TEST(FeatureSizeLimit, EqualsShortestPathReference)
         const std::vector<double> reference = dijkstra_reference(mesh, clamped(D, D_out, p), p.G);
         double worst = 0;
         for (size_t i = 0; i < d.size(); ++i) worst = std::max(worst, std::abs(d[i] - reference[i]));
-        RecordProperty("max_difference_to_dijkstra_seed_" + std::to_string(seed), std::to_string(worst));
+        RecordProperty("max_difference_to_dijkstra_seed_" + std::to_string(seed), test::figure(worst));
         EXPECT_LE(worst, 1e-12) << "seed " << seed;
     }
 }
@@ -188,7 +188,7 @@ TEST(FeatureSizeLimit, SinglePerturbedRayHasBoundedEffect)
         EXPECT_LE(std::abs(d2[v] - d[v]), p.G * longest);
         worst_ratio = std::max(worst_ratio, std::abs(d2[v] - d[v]) / (p.G * longest));
     }
-    RecordProperty("worst_change_over_G_longest_edge", std::to_string(worst_ratio));
+    RecordProperty("worst_change_over_G_longest_edge", test::figure(worst_ratio));
 }
 
 TEST(FeatureSizeLimit, Deterministic)

@@ -35,8 +35,8 @@ TEST(LocalDiameter, SphereDiameterIsTwiceTheRadius)
         EXPECT_EQ(rays.D_out[i], kInfinity) << "vertex " << i;
     }
     const double fraction = static_cast<double>(within) / static_cast<double>(mesh.points.size());
-    RecordProperty("fraction_within_3_percent", std::to_string(fraction));
-    RecordProperty("worst_relative_error", std::to_string(worst));
+    RecordProperty("fraction_within_3_percent", test::figure(fraction));
+    RecordProperty("worst_relative_error", test::figure(worst));
     EXPECT_GE(fraction, 0.95);
     EXPECT_EQ(rays.rays, 2 * static_cast<int64_t>(mesh.points.size()));
     EXPECT_EQ(rays.escaped_inward, 0);
@@ -60,7 +60,7 @@ TEST(LocalDiameter, CylinderWallDiameterIsTwiceTheRadius)
             EXPECT_EQ(rays.D_out[v], kInfinity);
             ++checked;
         }
-    RecordProperty("worst_relative_error", std::to_string(worst));
+    RecordProperty("worst_relative_error", test::figure(worst));
     EXPECT_GT(checked, 1000);
     EXPECT_LE(worst, 0.05);
 }
@@ -101,7 +101,7 @@ TEST(LocalDiameter, ParallelTubesSeeTheGap)
         EXPECT_EQ(rays.D_out[k * around + around / 2], kInfinity);
         EXPECT_EQ(rays.D_out[second + k * around], kInfinity);
     }
-    RecordProperty("worst_gap_relative_error", std::to_string(worst));
+    RecordProperty("worst_gap_relative_error", test::figure(worst));
     EXPECT_LE(worst, 0.02);
 }
 

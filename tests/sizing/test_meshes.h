@@ -10,6 +10,8 @@
 #include <map>
 #include <numbers>
 #include <random>
+#include <sstream>
+#include <string>
 #include <utility>
 
 namespace scalemesh::test {
@@ -149,6 +151,15 @@ inline double torus_distance(const Vec3& p, double R, double r)
 {
     const double rho = std::hypot(p.x, p.y);
     return std::abs(std::hypot(rho - R, p.z) - r);
+}
+
+// A measured figure for RecordProperty, in a form that keeps small values.
+inline std::string figure(double value)
+{
+    std::ostringstream out;
+    out.precision(4);
+    out << value;
+    return out.str();
 }
 
 } // namespace scalemesh::test

@@ -22,7 +22,7 @@ TEST(Normals, SphereNormalsAreOutwardRadialUnitVectors)
         EXPECT_NEAR(norm(normals[i]), 1.0, 1e-14);
         min_cos = std::min(min_cos, dot(normals[i], normalized(mesh.points[i] - centre)));
     }
-    RecordProperty("min_cos_to_radial", std::to_string(min_cos));
+    RecordProperty("min_cos_to_radial", test::figure(min_cos));
     EXPECT_GT(min_cos, 0.9999);
 }
 

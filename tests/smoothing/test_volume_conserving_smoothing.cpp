@@ -116,8 +116,8 @@ TEST(Smoothing, ReducesNoiseOnSphere)
     smooth_volume_conserving(mesh, {10, 1.0});
     const double error_before = mean_sphere_distance(before, 10.0);
     const double error_after = mean_sphere_distance(mesh, 10.0);
-    RecordProperty("mean_distance_before", std::to_string(error_before));
-    RecordProperty("mean_distance_after", std::to_string(error_after));
+    RecordProperty("mean_distance_before", test::figure(error_before));
+    RecordProperty("mean_distance_after", test::figure(error_after));
     EXPECT_LT(error_after, error_before);
 }
 
@@ -128,8 +128,8 @@ TEST(Smoothing, ReducesNoiseOnTorus)
     smooth_volume_conserving(mesh, {10, 1.0});
     const double error_before = mean_torus_distance(before, 10.0, 3.0);
     const double error_after = mean_torus_distance(mesh, 10.0, 3.0);
-    RecordProperty("mean_distance_before", std::to_string(error_before));
-    RecordProperty("mean_distance_after", std::to_string(error_after));
+    RecordProperty("mean_distance_before", test::figure(error_before));
+    RecordProperty("mean_distance_after", test::figure(error_after));
     EXPECT_LT(error_after, error_before);
 }
 
@@ -144,8 +144,8 @@ TEST(Smoothing, EvensOutEdgeLengths)
     smooth_volume_conserving(mesh, {10, 1.0});
     const double cv_before = edge_length_variation(before);
     const double cv_after = edge_length_variation(mesh);
-    RecordProperty("edge_length_cv", std::to_string(cv_clean) + " clean, " + std::to_string(cv_before) +
-                                         " noisy, " + std::to_string(cv_after) + " smoothed");
+    RecordProperty("edge_length_cv", test::figure(cv_clean) + " clean, " + test::figure(cv_before) +
+                                         " noisy, " + test::figure(cv_after) + " smoothed");
     EXPECT_LT(cv_after - cv_clean, 0.5 * (cv_before - cv_clean)) << cv_clean << ", " << cv_before << " -> " << cv_after;
 }
 
