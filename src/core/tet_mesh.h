@@ -1,0 +1,41 @@
+#pragma once
+// TetMesh: the tetrahedral mesh handed from the volume stage to the exporters
+// (DESIGN.md), as index arrays.
+
+#include "core/surface_mesh.h"
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace scalemesh {
+
+using Tet = std::array<int32_t, 4>;
+
+struct TetMesh {
+    std::vector<Vec3> points;             // mm
+    std::vector<Tet> tets;                // positively oriented: (b-a) . ((c-a) x (d-a)) > 0
+    std::vector<Triangle> boundary_faces; // counter-clockwise seen from outside the mesh
+    std::vector<int32_t> boundary_patch;  // patch id per boundary face; empty means all 0 (wall)
+    std::vector<std::string> patch_names; // name per patch id; empty means {"wall"}
+    std::vector<VertexField> point_fields; // per point, e.g. d, D
+    std::vector<std::pair<std::string, std::vector<double>>> tet_fields; // per tet, e.g. aspect ratio, layer
+};
+
+// Six times the signed volume of tet (a, b, c, d).
+double tet_volume6(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
+
+struct TetMeshFacts {
+    int64_t nonpositive_tets = 0;   // tets with volume <= 0
+    double volume = 0;              // sum of tet volumes, mm^3
+    double min_tet_volume = 0;
+    int64_t boundary_faces = 0;     // faces with one tet
+    int64_t overshared_faces = 0;   // faces with three or more tets
+    bool boundary_matches = false;  // the one-tet faces are exactly boundary_faces, same orientation
+};
+
+// Checks the facts every exported mesh must have. Linear in the mesh size.
+TetMeshFacts tet_mesh_facts(const TetMesh& mesh);
+
+} // namespace scalemesh
