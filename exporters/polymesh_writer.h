@@ -1,0 +1,41 @@
+#pragma once
+// OpenFOAM constant/polyMesh from a TetMesh, by our own writer: points, faces,
+// owner, neighbour and boundary, with OpenFOAM's ordering rules.
+
+#include "core/tet_mesh.h"
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace scalemesh {
+
+struct PolyMeshOptions {
+    bool binary = false; // "format binary" (32-bit labels, 64-bit scalars, little-endian)
+    // Patch type per patch id ("wall" or "patch"); ids not listed are "wall".
+    std::vector<std::string> patch_types;
+};
+
+struct PolyMeshCounts {
+    int64_t points = 0, cells = 0, faces = 0, internal_faces = 0;
+    std::vector<int64_t> patch_faces; // per patch, in the order of `boundary`
+};
+
+// Writes case_dir/constant/polyMesh/{points,faces,owner,neighbour,boundary}.
+//
+// Ordering, as checkMesh requires: internal faces first, sorted by owner cell
+// and then by neighbour cell (upper-triangular order), owner < neighbour,
+// each face's points ordered so its normal points from owner to neighbour;
+// then the boundary faces grouped by patch in the order of `boundary`, their
+// normals pointing out of the mesh. Cell i is tet i; point i is point i.
+//
+// The mesh is validated before anything is written: every tet positively
+// oriented, no face shared by more than two tets, the one-tet faces exactly
+// mesh.boundary_faces, every patch id named. A mesh that fails is refused with
+// a StageError naming what failed, and no file is written. The five files are
+// written under temporary names and moved into place together at the end.
+// Throws IoError when a file cannot be written.
+PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& case_dir,
+                              const PolyMeshOptions& options = {});
+
+} // namespace scalemesh

@@ -1,0 +1,217 @@
+// The polyMesh writer on hand-made meshes: OpenFOAM's ordering rules checked
+// directly, then by checkMesh itself; invalid meshes refused with nothing written.
+
+#include "core/errors.h"
+#include "core/tet_mesh.h"
+#include "exporters/polymesh_writer.h"
+
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <random>
+#include <sstream>
+
+namespace scalemesh {
+namespace {
+
+struct Dir {
+    std::filesystem::path path = std::filesystem::temp_directory_path() /
+                                 ("scalemesh-polymesh-" + std::to_string(std::random_device{}()));
+    Dir() { std::filesystem::create_directories(path); }
+    ~Dir() { std::filesystem::remove_all(path); }
+};
+
+// The unit cube cut into six tets around its diagonal 0-7, each oriented
+// positively, with its 12 boundary triangles found independently here.
+TetMesh cube_in_six_tets()
+{
+    TetMesh m;
+    for (int i = 0; i < 8; ++i) m.points.push_back({double(i & 1), double((i >> 1) & 1), double((i >> 2) & 1)});
+    m.tets = {{0, 1, 3, 7}, {0, 3, 2, 7}, {0, 2, 6, 7}, {0, 6, 4, 7}, {0, 4, 5, 7}, {0, 5, 1, 7}};
+    for (Tet& t : m.tets)
+        if (tet_volume6(m.points[t[0]], m.points[t[1]], m.points[t[2]], m.points[t[3]]) < 0) std::swap(t[2], t[3]);
+    const int faces[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+    std::map<std::array<int32_t, 3>, std::pair<int, Triangle>> seen;
+    for (const Tet& t : m.tets)
+        for (const auto& f : faces) {
+            Triangle tri{t[f[0]], t[f[1]], t[f[2]]};
+            std::array<int32_t, 3> key{tri[0], tri[1], tri[2]};
+            std::sort(key.begin(), key.end());
+            seen[key].first++;
+            seen[key].second = tri;
+        }
+    for (const auto& [key, entry] : seen)
+        if (entry.first == 1) m.boundary_faces.push_back(entry.second);
+    return m;
+}
+
+std::vector<int64_t> read_labels(const std::filesystem::path& file)
+{
+    std::ifstream in(file);
+    std::string line;
+    while (std::getline(in, line) && line != "}") {
+    }
+    int64_t n = 0;
+    in >> n;
+    char paren;
+    in >> paren;
+    std::vector<int64_t> v(n);
+    for (auto& x : v) in >> x;
+    return v;
+}
+
+std::vector<std::array<int64_t, 3>> read_faces(const std::filesystem::path& file)
+{
+    std::ifstream in(file);
+    std::string line;
+    while (std::getline(in, line) && line != "}") {
+    }
+    int64_t n = 0;
+    in >> n;
+    std::string token;
+    std::getline(in, token);
+    std::getline(in, token); // "("
+    std::vector<std::array<int64_t, 3>> faces;
+    for (int64_t f = 0; f < n; ++f) {
+        std::getline(in, token);
+        std::array<int64_t, 3> face{};
+        std::sscanf(token.c_str(), "3(%ld %ld %ld)", &face[0], &face[1], &face[2]);
+        faces.push_back(face);
+    }
+    return faces;
+}
+
+TEST(PolyMesh, CubeInSixTetsFollowsOpenFoamsOrderingRules)
+{
+    const Dir dir;
+    const TetMesh mesh = cube_in_six_tets();
+    ASSERT_EQ(mesh.boundary_faces.size(), 12u);
+    const PolyMeshCounts counts = write_polymesh(mesh, dir.path);
+    EXPECT_EQ(counts.cells, 6);
+    EXPECT_EQ(counts.internal_faces, 6);
+    EXPECT_EQ(counts.faces, 18);
+    ASSERT_EQ(counts.patch_faces.size(), 1u);
+    EXPECT_EQ(counts.patch_faces[0], 12);
+
+    const auto poly = dir.path / "constant" / "polyMesh";
+    const auto owner = read_labels(poly / "owner");
+    const auto neighbour = read_labels(poly / "neighbour");
+    const auto faces = read_faces(poly / "faces");
+    ASSERT_EQ(owner.size(), 18u);
+    ASSERT_EQ(neighbour.size(), 6u);
+    ASSERT_EQ(faces.size(), 18u);
+    auto centroid = [&](int64_t cell) {
+        Vec3 c;
+        for (int32_t v : mesh.tets[cell]) c += mesh.points[v];
+        return c / 4.0;
+    };
+    for (size_t f = 0; f < faces.size(); ++f) {
+        const Vec3 a = mesh.points[faces[f][0]], b = mesh.points[faces[f][1]], c = mesh.points[faces[f][2]];
+        const Vec3 normal = cross(b - a, c - a);
+        const Vec3 centre = (a + b + c) / 3.0;
+        // The normal points away from the owner's centroid ...
+        EXPECT_GT(dot(normal, centre - centroid(owner[f])), 0) << "face " << f;
+        if (f < neighbour.size()) {
+            // ... towards the neighbour's, owner < neighbour, upper-triangular order.
+            EXPECT_LT(owner[f], neighbour[f]);
+            EXPECT_GT(dot(normal, centroid(neighbour[f]) - centre), 0) << "face " << f;
+            if (f > 0) {
+                EXPECT_TRUE(owner[f - 1] < owner[f] || (owner[f - 1] == owner[f] && neighbour[f - 1] < neighbour[f]));
+            }
+        }
+    }
+}
+
+bool checkmesh_available() { return std::system("command -v checkMesh >/dev/null 2>&1") == 0; }
+
+// Runs checkMesh on a case holding only a polyMesh and the minimal system/.
+std::string check_mesh(const std::filesystem::path& case_dir)
+{
+    std::filesystem::create_directories(case_dir / "system");
+    std::ofstream(case_dir / "system" / "controlDict")
+        << "FoamFile { version 2.0; format ascii; class dictionary; object controlDict; }\n"
+           "application simpleFoam; startFrom startTime; startTime 0; stopAt endTime; endTime 1; deltaT 1;\n"
+           "writeControl timeStep; writeInterval 1;\n";
+    std::ofstream(case_dir / "system" / "fvSchemes")
+        << "FoamFile { version 2.0; format ascii; class dictionary; object fvSchemes; }\n"
+           "ddtSchemes { default steadyState; } gradSchemes { default Gauss linear; }\n"
+           "divSchemes { default none; } laplacianSchemes { default Gauss linear corrected; }\n"
+           "interpolationSchemes { default linear; } snGradSchemes { default corrected; }\n";
+    std::ofstream(case_dir / "system" / "fvSolution")
+        << "FoamFile { version 2.0; format ascii; class dictionary; object fvSolution; }\n";
+    const std::filesystem::path log = case_dir / "checkMesh.log";
+    const std::string cmd = "WM_PROJECT_DIR=/usr/share/openfoam checkMesh -case '" + case_dir.string() + "' > '" +
+                            log.string() + "' 2>&1";
+    (void)std::system(cmd.c_str());
+    std::ifstream in(log);
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
+}
+
+TEST(PolyMesh, CheckMeshAcceptsTheCubeInAsciiAndBinary)
+{
+    if (!checkmesh_available()) GTEST_SKIP() << "checkMesh (Debian package openfoam) is not installed";
+    for (bool binary : {false, true}) {
+        const Dir dir;
+        write_polymesh(cube_in_six_tets(), dir.path, {.binary = binary, .patch_types = {}});
+        const std::string log = check_mesh(dir.path);
+        EXPECT_NE(log.find("Mesh OK."), std::string::npos) << (binary ? "binary" : "ascii") << "\n" << log;
+        EXPECT_NE(log.find("cells:            6"), std::string::npos) << log;
+    }
+}
+
+TEST(PolyMesh, RefusesInvalidMeshesAndWritesNothing)
+{
+    const Dir dir;
+    TetMesh inverted = cube_in_six_tets();
+    std::swap(inverted.tets[2][0], inverted.tets[2][1]); // one tet turned inside out
+    EXPECT_THROW(write_polymesh(inverted, dir.path), StageError);
+
+    TetMesh open = cube_in_six_tets();
+    open.boundary_faces.pop_back(); // a boundary face nobody claims
+    EXPECT_THROW(write_polymesh(open, dir.path), StageError);
+
+    TetMesh flipped = cube_in_six_tets();
+    std::swap(flipped.boundary_faces[0][1], flipped.boundary_faces[0][2]); // a boundary face facing in
+    EXPECT_THROW(write_polymesh(flipped, dir.path), StageError);
+
+    TetMesh doubled = cube_in_six_tets();
+    doubled.tets.push_back(doubled.tets[0]); // a face shared by three cells
+    EXPECT_THROW(write_polymesh(doubled, dir.path), StageError);
+
+    EXPECT_FALSE(std::filesystem::exists(dir.path / "constant" / "polyMesh" / "points"));
+}
+
+TEST(PolyMesh, PatchesAreGroupedInTheOrderOfBoundary)
+{
+    const Dir dir;
+    TetMesh mesh = cube_in_six_tets();
+    mesh.patch_names = {"wall", "inlet"};
+    mesh.boundary_patch.assign(mesh.boundary_faces.size(), 0);
+    for (size_t f = 0; f < mesh.boundary_faces.size(); ++f) {
+        bool bottom = true;
+        for (int32_t v : mesh.boundary_faces[f]) bottom = bottom && mesh.points[v].z == 0.0;
+        if (bottom) mesh.boundary_patch[f] = 1;
+    }
+    const PolyMeshCounts counts = write_polymesh(mesh, dir.path, {.patch_types = {"wall", "patch"}});
+    ASSERT_EQ(counts.patch_faces.size(), 2u);
+    EXPECT_EQ(counts.patch_faces[0], 10);
+    EXPECT_EQ(counts.patch_faces[1], 2);
+    std::ifstream in(dir.path / "constant" / "polyMesh" / "boundary");
+    std::stringstream text;
+    text << in.rdbuf();
+    const std::string b = text.str();
+    EXPECT_LT(b.find("wall"), b.find("inlet"));
+    EXPECT_NE(b.find("startFace       16;"), std::string::npos) << b;
+    EXPECT_NE(b.find("type            patch;"), std::string::npos) << b;
+    if (checkmesh_available()) {
+        EXPECT_NE(check_mesh(dir.path).find("Mesh OK."), std::string::npos);
+    }
+}
+
+} // namespace
+} // namespace scalemesh
