@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cmath>
 #include <fstream>
 #include <memory>
 #include <sstream>
@@ -71,12 +72,12 @@ public:
         out_ << ")\n";
     }
 
-    void points(const std::vector<Vec3>& points)
+    void points(const std::vector<Vec3>& points, double scale)
     {
         out_ << points.size() << "\n(";
         if (binary_) {
             for (const Vec3& p : points) {
-                const double xyz[3] = {p.x, p.y, p.z};
+                const double xyz[3] = {p.x * scale, p.y * scale, p.z * scale};
                 out_.write(reinterpret_cast<const char*>(xyz), sizeof xyz);
             }
         } else {
@@ -85,7 +86,7 @@ public:
             for (const Vec3& p : points) {
                 out_ << '(';
                 for (int k = 0; k < 3; ++k) {
-                    const auto r = std::to_chars(buf, buf + sizeof buf, p[k]);
+                    const auto r = std::to_chars(buf, buf + sizeof buf, p[k] * scale);
                     out_.write(buf, r.ptr - buf);
                     out_ << (k < 2 ? ' ' : ')');
                 }
@@ -216,7 +217,9 @@ PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& 
     {
         FoamWriter w = open("points");
         w.header("vectorField", "points");
-        w.points(mesh.points);
+        if (!(options.scale > 0) || !std::isfinite(options.scale))
+            throw StageError("polyMesh export", "the coordinate scale must be a positive number");
+        w.points(mesh.points, options.scale);
         w.finish(dir / "points");
     }
     std::vector<PolyFace> faces = std::move(internal);

@@ -12,6 +12,7 @@ namespace scalemesh {
 
 struct PolyMeshOptions {
     bool binary = false; // "format binary" (32-bit labels, 64-bit scalars, little-endian)
+    double scale = 1.0;  // coordinates are multiplied by this: 1e-3 writes a mesh in mm as metres
     // Patch type per patch id ("wall" or "patch"); ids not listed are "wall".
     std::vector<std::string> patch_types;
 };

@@ -1,0 +1,141 @@
+#include "exporters/openfoam_case.h"
+
+#include "core/atomic_file.h"
+#include "core/errors.h"
+
+#include <cmath>
+#include <fstream>
+#include <memory>
+#include <sstream>
+
+namespace scalemesh {
+
+namespace {
+
+std::string header(const std::string& cls, const std::string& location, const std::string& object)
+{
+    return "FoamFile\n{\n    version     2.0;\n    format      ascii;\n    class       " + cls +
+           ";\n    location    \"" + location + "\";\n    object      " + object + ";\n}\n\n";
+}
+
+class CaseFiles {
+public:
+    explicit CaseFiles(std::filesystem::path dir) : dir_(std::move(dir)) {}
+
+    void add(const std::string& relative, const std::string& text)
+    {
+        const std::filesystem::path path = dir_ / relative;
+        std::error_code ec;
+        std::filesystem::create_directories(path.parent_path(), ec);
+        if (ec) throw IoError(path.parent_path().string(), "cannot create the directory: " + ec.message());
+        outputs_.push_back(std::make_unique<AtomicOutput>(path));
+        std::ofstream out(outputs_.back()->temporary());
+        out << text << "\n// ************************************************************************* //\n";
+        if (!out.flush()) throw IoError(path.string(), "cannot write the file");
+    }
+
+    void commit()
+    {
+        for (auto& out : outputs_) out->commit();
+    }
+
+private:
+    std::filesystem::path dir_;
+    std::vector<std::unique_ptr<AtomicOutput>> outputs_;
+};
+
+} // namespace
+
+bool write_openfoam_case(const std::filesystem::path& case_dir, const std::vector<std::string>& patch_names,
+                         const std::vector<PatchRole>& roles, const FlowSettings& settings)
+{
+    if (!(settings.kinematic_viscosity > 0) || !std::isfinite(settings.kinematic_viscosity))
+        throw InputError("the kinematic viscosity must be a positive number (m^2/s)", "blood is about 3.3e-6");
+    if (!(settings.inlet_speed > 0) || !std::isfinite(settings.inlet_speed))
+        throw InputError("the inlet speed must be a positive number (m/s)", "give e.g. 0.1");
+    if (settings.iterations < 1) throw InputError("the iteration count must be at least 1", "give e.g. 2000");
+    if (roles.size() != patch_names.size())
+        throw InputError("every patch needs a role (wall, inlet or outlet)", "give one role per patch");
+
+    bool inlet = false, outlet = false;
+    for (PatchRole r : roles) {
+        inlet = inlet || r == PatchRole::Inlet;
+        outlet = outlet || r == PatchRole::Outlet;
+    }
+    const bool flow = inlet && outlet;
+
+    CaseFiles files(case_dir);
+    std::ostringstream control;
+    control << header("dictionary", "system", "controlDict") << "application     simpleFoam;\n"
+            << "startFrom       startTime;\nstartTime       0;\nstopAt          endTime;\nendTime         "
+            << settings.iterations << ";\ndeltaT          1;\nwriteControl    timeStep;\nwriteInterval   "
+            << settings.iterations << ";\npurgeWrite      0;\nwriteFormat     ascii;\nwritePrecision  8;\n"
+            << "writeCompression off;\ntimeFormat      general;\ntimePrecision   6;\nrunTimeModifiable true;\n";
+    files.add("system/controlDict", control.str());
+
+    // Tetrahedral cells: bounded second-order convection and limited
+    // non-orthogonal correction keep SIMPLE stable on skewed layer cells.
+    files.add("system/fvSchemes", header("dictionary", "system", "fvSchemes") +
+                                      "ddtSchemes { default steadyState; }\n"
+                                      "gradSchemes { default Gauss linear; grad(U) cellLimited Gauss linear 1; }\n"
+                                      "divSchemes\n{\n    default none;\n"
+                                      "    div(phi,U) bounded Gauss linearUpwind grad(U);\n"
+                                      "    div((nuEff*dev2(T(grad(U))))) Gauss linear;\n}\n"
+                                      "laplacianSchemes { default Gauss linear limited corrected 0.5; }\n"
+                                      "interpolationSchemes { default linear; }\n"
+                                      "snGradSchemes { default limited corrected 0.5; }\n");
+    files.add("system/fvSolution", header("dictionary", "system", "fvSolution") +
+                                       "solvers\n{\n"
+                                       "    p { solver GAMG; smoother GaussSeidel; tolerance 1e-8; relTol 0.05; }\n"
+                                       "    U { solver smoothSolver; smoother symGaussSeidel; tolerance 1e-9; relTol 0.1; }\n"
+                                       "}\n"
+                                       "SIMPLE\n{\n    nNonOrthogonalCorrectors 1;\n    consistent yes;\n"
+                                       "    residualControl { p 1e-6; U 1e-7; }\n}\n"
+                                       "relaxationFactors { equations { U 0.9; \".*\" 0.9; } }\n");
+    std::ostringstream transport;
+    transport.precision(10);
+    transport << header("dictionary", "constant", "transportProperties") << "transportModel  Newtonian;\n"
+              << "nu              [0 2 -1 0 0 0 0] " << settings.kinematic_viscosity << ";\n";
+    files.add("constant/transportProperties", transport.str());
+    files.add("constant/turbulenceProperties",
+              header("dictionary", "constant", "turbulenceProperties") + "simulationType  laminar;\n");
+
+    if (flow) {
+        std::ostringstream U, p;
+        U.precision(10);
+        U << header("volVectorField", "0", "U") << "dimensions      [0 1 -1 0 0 0 0];\n"
+          << "internalField   uniform (0 0 0);\n\nboundaryField\n{\n";
+        p << header("volScalarField", "0", "p") << "dimensions      [0 2 -2 0 0 0 0];\n"
+          << "internalField   uniform 0;\n\nboundaryField\n{\n";
+        for (size_t i = 0; i < patch_names.size(); ++i) {
+            U << "    " << patch_names[i] << "\n    {\n";
+            p << "    " << patch_names[i] << "\n    {\n";
+            switch (roles[i]) {
+            case PatchRole::Wall:
+                U << "        type            noSlip;\n";
+                p << "        type            zeroGradient;\n";
+                break;
+            case PatchRole::Inlet:
+                // A negative normal value flows into the domain.
+                U << "        type            surfaceNormalFixedValue;\n        refValue        uniform "
+                  << -settings.inlet_speed << ";\n";
+                p << "        type            zeroGradient;\n";
+                break;
+            case PatchRole::Outlet:
+                U << "        type            zeroGradient;\n";
+                p << "        type            fixedValue;\n        value           uniform 0;\n";
+                break;
+            }
+            U << "    }\n";
+            p << "    }\n";
+        }
+        U << "}\n";
+        p << "}\n";
+        files.add("0/U", U.str());
+        files.add("0/p", p.str());
+    }
+    files.commit();
+    return flow;
+}
+
+} // namespace scalemesh
