@@ -4,13 +4,14 @@
 #include "core/errors.h"
 #include "core/tet_mesh.h"
 #include "exporters/polymesh_writer.h"
+#include "openfoam_support.h"
+#include "tet_meshes.h"
 
 #include <gtest/gtest.h>
 
 #include <array>
 #include <cstdio>
 #include <fstream>
-#include <map>
 #include <random>
 #include <sstream>
 
@@ -23,30 +24,6 @@ struct Dir {
     Dir() { std::filesystem::create_directories(path); }
     ~Dir() { std::filesystem::remove_all(path); }
 };
-
-// The unit cube cut into six tets around its diagonal 0-7, each oriented
-// positively, with its 12 boundary triangles found independently here.
-TetMesh cube_in_six_tets()
-{
-    TetMesh m;
-    for (int i = 0; i < 8; ++i) m.points.push_back({double(i & 1), double((i >> 1) & 1), double((i >> 2) & 1)});
-    m.tets = {{0, 1, 3, 7}, {0, 3, 2, 7}, {0, 2, 6, 7}, {0, 6, 4, 7}, {0, 4, 5, 7}, {0, 5, 1, 7}};
-    for (Tet& t : m.tets)
-        if (tet_volume6(m.points[t[0]], m.points[t[1]], m.points[t[2]], m.points[t[3]]) < 0) std::swap(t[2], t[3]);
-    const int faces[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
-    std::map<std::array<int32_t, 3>, std::pair<int, Triangle>> seen;
-    for (const Tet& t : m.tets)
-        for (const auto& f : faces) {
-            Triangle tri{t[f[0]], t[f[1]], t[f[2]]};
-            std::array<int32_t, 3> key{tri[0], tri[1], tri[2]};
-            std::sort(key.begin(), key.end());
-            seen[key].first++;
-            seen[key].second = tri;
-        }
-    for (const auto& [key, entry] : seen)
-        if (entry.first == 1) m.boundary_faces.push_back(entry.second);
-    return m;
-}
 
 std::vector<int64_t> read_labels(const std::filesystem::path& file)
 {
@@ -125,42 +102,16 @@ TEST(PolyMesh, CubeInSixTetsFollowsOpenFoamsOrderingRules)
     }
 }
 
-bool checkmesh_available() { return std::system("command -v checkMesh >/dev/null 2>&1") == 0; }
-
-// Runs checkMesh on a case holding only a polyMesh and the minimal system/.
-std::string check_mesh(const std::filesystem::path& case_dir)
-{
-    std::filesystem::create_directories(case_dir / "system");
-    std::ofstream(case_dir / "system" / "controlDict")
-        << "FoamFile { version 2.0; format ascii; class dictionary; object controlDict; }\n"
-           "application simpleFoam; startFrom startTime; startTime 0; stopAt endTime; endTime 1; deltaT 1;\n"
-           "writeControl timeStep; writeInterval 1;\n";
-    std::ofstream(case_dir / "system" / "fvSchemes")
-        << "FoamFile { version 2.0; format ascii; class dictionary; object fvSchemes; }\n"
-           "ddtSchemes { default steadyState; } gradSchemes { default Gauss linear; }\n"
-           "divSchemes { default none; } laplacianSchemes { default Gauss linear corrected; }\n"
-           "interpolationSchemes { default linear; } snGradSchemes { default corrected; }\n";
-    std::ofstream(case_dir / "system" / "fvSolution")
-        << "FoamFile { version 2.0; format ascii; class dictionary; object fvSolution; }\n";
-    const std::filesystem::path log = case_dir / "checkMesh.log";
-    const std::string cmd = "WM_PROJECT_DIR=/usr/share/openfoam checkMesh -case '" + case_dir.string() + "' > '" +
-                            log.string() + "' 2>&1";
-    (void)std::system(cmd.c_str());
-    std::ifstream in(log);
-    std::stringstream text;
-    text << in.rdbuf();
-    return text.str();
-}
-
 TEST(PolyMesh, CheckMeshAcceptsTheCubeInAsciiAndBinary)
 {
-    if (!checkmesh_available()) GTEST_SKIP() << "checkMesh (Debian package openfoam) is not installed";
+    if (!openfoam_available()) GTEST_SKIP() << "OpenFOAM (Debian package openfoam) is not installed";
     for (bool binary : {false, true}) {
         const Dir dir;
         write_polymesh(cube_in_six_tets(), dir.path, {.binary = binary, .patch_types = {}});
-        const std::string log = check_mesh(dir.path);
-        EXPECT_NE(log.find("Mesh OK."), std::string::npos) << (binary ? "binary" : "ascii") << "\n" << log;
-        EXPECT_NE(log.find("cells:            6"), std::string::npos) << log;
+        const CheckMeshFigures check = check_mesh(dir.path);
+        EXPECT_TRUE(check.ok) << (binary ? "binary" : "ascii") << "\n" << check.log;
+        EXPECT_EQ(check.cells, 6);
+        EXPECT_NEAR(check.volume, 1.0, 1e-12);
     }
 }
 
@@ -208,8 +159,8 @@ TEST(PolyMesh, PatchesAreGroupedInTheOrderOfBoundary)
     EXPECT_LT(b.find("wall"), b.find("inlet"));
     EXPECT_NE(b.find("startFace       16;"), std::string::npos) << b;
     EXPECT_NE(b.find("type            patch;"), std::string::npos) << b;
-    if (checkmesh_available()) {
-        EXPECT_NE(check_mesh(dir.path).find("Mesh OK."), std::string::npos);
+    if (openfoam_available()) {
+        EXPECT_TRUE(check_mesh(dir.path).ok);
     }
 }
 
