@@ -186,31 +186,24 @@ CubeCase build_case(int inside_mask, bool separate_inside)
         const std::vector<int>& A = (kEdgeCorners[loops[0][0]][0] == c0 || kEdgeCorners[loops[0][0]][1] == c0)
                                         ? loops[0] : loops[1];
         const std::vector<int>& B = (&A == &loops[0]) ? loops[1] : loops[0];
-        for (int i = 0; i < 3; ++i) {
-            const int a = A[i], a_next = A[(i + 1) % 3];
-            // The B vertex angularly between the two A vertices closes the triangle.
-            int best = B[0];
-            double best_score = 1e9;
-            for (int b : B) {
-                double lo = angle(a), hi = angle(a_next);
-                double mid = std::atan2(std::sin(lo) + std::sin(hi), std::cos(lo) + std::cos(hi));
-                double diff = std::fabs(std::remainder(angle(b) - mid, 2 * M_PI));
-                if (diff < best_score) best_score = diff, best = b;
+        // Each edge of one loop is closed into a triangle by the vertex of
+        // the other loop that lies angularly between the edge's two ends.
+        auto strip = [&](const std::vector<int>& loop, const std::vector<int>& other) {
+            for (int i = 0; i < 3; ++i) {
+                const int from = loop[i], to = loop[(i + 1) % 3];
+                const double lo = angle(from), hi = angle(to);
+                const double mid = std::atan2(std::sin(lo) + std::sin(hi), std::cos(lo) + std::cos(hi));
+                int best = other[0];
+                double best_gap = 1e9;
+                for (int v : other) {
+                    const double gap = std::fabs(std::remainder(angle(v) - mid, 2 * M_PI));
+                    if (gap < best_gap) best_gap = gap, best = v;
+                }
+                result.triangles.push_back({uint8_t(from), uint8_t(to), uint8_t(best)});
             }
-            result.triangles.push_back({uint8_t(a), uint8_t(a_next), uint8_t(best)});
-        }
-        for (int i = 0; i < 3; ++i) {
-            const int b = B[i], b_next = B[(i + 1) % 3];
-            int best = A[0];
-            double best_score = 1e9;
-            for (int a : A) {
-                double lo = angle(b), hi = angle(b_next);
-                double mid = std::atan2(std::sin(lo) + std::sin(hi), std::cos(lo) + std::cos(hi));
-                double diff = std::fabs(std::remainder(angle(a) - mid, 2 * M_PI));
-                if (diff < best_score) best_score = diff, best = a;
-            }
-            result.triangles.push_back({uint8_t(b), uint8_t(b_next), uint8_t(best)});
-        }
+        };
+        strip(A, B);
+        strip(B, A);
         return result;
     }
 

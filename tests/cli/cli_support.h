@@ -12,32 +12,9 @@
 #include <sys/wait.h>
 #include <vector>
 
-namespace scalemesh {
+#include "support/temp_dir.h"
 
-// A directory removed with everything in it when the test ends.
-struct TempDir {
-    std::filesystem::path path;
-    TempDir()
-    {
-        std::random_device rd;
-        path = std::filesystem::temp_directory_path() / ("scalemesh-test-" + std::to_string(rd()) + std::to_string(rd()));
-        std::filesystem::create_directories(path);
-    }
-    ~TempDir()
-    {
-        std::error_code ignored;
-        std::filesystem::remove_all(path, ignored);
-    }
-    // Files in the directory, sorted, without the directory part.
-    std::vector<std::string> files() const
-    {
-        std::vector<std::string> out;
-        for (const auto& e : std::filesystem::recursive_directory_iterator(path))
-            out.push_back(std::filesystem::relative(e.path(), path).string());
-        std::sort(out.begin(), out.end());
-        return out;
-    }
-};
+namespace scalemesh {
 
 struct CommandResult {
     int exit_code = -1;

@@ -8,6 +8,8 @@
 #include "openfoam_support.h"
 #include "tet_meshes.h"
 
+#include "support/temp_dir.h"
+
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -17,17 +19,10 @@
 namespace scalemesh {
 namespace {
 
-struct Dir {
-    std::filesystem::path path = std::filesystem::temp_directory_path() /
-                                 ("scalemesh-foamcase-" + std::to_string(std::random_device{}()));
-    Dir() { std::filesystem::create_directories(path); }
-    ~Dir() { std::filesystem::remove_all(path); }
-};
-
 TEST(OpenFoamCase, ChannelRunsToConvergenceWithSimpleFoam)
 {
     if (!openfoam_available()) GTEST_SKIP() << "OpenFOAM (Debian package openfoam) is not installed";
-    const Dir dir;
+    const TempDir dir;
     const TetMesh mesh = box_of_cubes(4, 4, 8);
     write_polymesh(mesh, dir.path, {.binary = false, .scale = 1e-3, .patch_types = {"wall", "patch", "patch"}});
     const bool flow = write_openfoam_case(dir.path, mesh.patch_names,
@@ -43,7 +38,7 @@ TEST(OpenFoamCase, ChannelRunsToConvergenceWithSimpleFoam)
 
 TEST(OpenFoamCase, NoOpeningsMeansNoFlowFields)
 {
-    const Dir dir;
+    const TempDir dir;
     EXPECT_FALSE(write_openfoam_case(dir.path, {"wall"}, {PatchRole::Wall}));
     EXPECT_TRUE(std::filesystem::exists(dir.path / "system" / "controlDict"));
     EXPECT_TRUE(std::filesystem::exists(dir.path / "constant" / "transportProperties"));
@@ -52,7 +47,7 @@ TEST(OpenFoamCase, NoOpeningsMeansNoFlowFields)
 
 TEST(OpenFoamCase, RefusesImpossibleSettings)
 {
-    const Dir dir;
+    const TempDir dir;
     EXPECT_THROW(write_openfoam_case(dir.path, {"wall"}, {PatchRole::Wall}, {.kinematic_viscosity = -1}), InputError);
     EXPECT_THROW(write_openfoam_case(dir.path, {"wall"}, {PatchRole::Wall}, {.inlet_speed = 0}), InputError);
     EXPECT_THROW(write_openfoam_case(dir.path, {"wall", "inlet"}, {PatchRole::Wall}), InputError);

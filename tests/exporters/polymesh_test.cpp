@@ -7,6 +7,8 @@
 #include "openfoam_support.h"
 #include "tet_meshes.h"
 
+#include "support/temp_dir.h"
+
 #include <gtest/gtest.h>
 
 #include <array>
@@ -17,13 +19,6 @@
 
 namespace scalemesh {
 namespace {
-
-struct Dir {
-    std::filesystem::path path = std::filesystem::temp_directory_path() /
-                                 ("scalemesh-polymesh-" + std::to_string(std::random_device{}()));
-    Dir() { std::filesystem::create_directories(path); }
-    ~Dir() { std::filesystem::remove_all(path); }
-};
 
 std::vector<int64_t> read_labels(const std::filesystem::path& file)
 {
@@ -63,7 +58,7 @@ std::vector<std::array<int64_t, 3>> read_faces(const std::filesystem::path& file
 
 TEST(PolyMesh, CubeInSixTetsFollowsOpenFoamsOrderingRules)
 {
-    const Dir dir;
+    const TempDir dir;
     const TetMesh mesh = cube_in_six_tets();
     ASSERT_EQ(mesh.boundary_faces.size(), 12u);
     const PolyMeshCounts counts = write_polymesh(mesh, dir.path);
@@ -106,7 +101,7 @@ TEST(PolyMesh, CheckMeshAcceptsTheCubeInAsciiAndBinary)
 {
     if (!openfoam_available()) GTEST_SKIP() << "OpenFOAM (Debian package openfoam) is not installed";
     for (bool binary : {false, true}) {
-        const Dir dir;
+        const TempDir dir;
         write_polymesh(cube_in_six_tets(), dir.path, {.binary = binary, .patch_types = {}});
         const CheckMeshFigures check = check_mesh(dir.path);
         EXPECT_TRUE(check.ok) << (binary ? "binary" : "ascii") << "\n" << check.log;
@@ -117,7 +112,7 @@ TEST(PolyMesh, CheckMeshAcceptsTheCubeInAsciiAndBinary)
 
 TEST(PolyMesh, RefusesInvalidMeshesAndWritesNothing)
 {
-    const Dir dir;
+    const TempDir dir;
     TetMesh inverted = cube_in_six_tets();
     std::swap(inverted.tets[2][0], inverted.tets[2][1]); // one tet turned inside out
     EXPECT_THROW(write_polymesh(inverted, dir.path), StageError);
@@ -139,7 +134,7 @@ TEST(PolyMesh, RefusesInvalidMeshesAndWritesNothing)
 
 TEST(PolyMesh, PatchesAreGroupedInTheOrderOfBoundary)
 {
-    const Dir dir;
+    const TempDir dir;
     TetMesh mesh = cube_in_six_tets();
     mesh.patch_names = {"wall", "inlet"};
     mesh.boundary_patch.assign(mesh.boundary_faces.size(), 0);

@@ -9,6 +9,8 @@
 #include "tet_meshes.h"
 
 #include <gmsh.h>
+#include "support/temp_dir.h"
+
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -17,13 +19,6 @@
 
 namespace scalemesh {
 namespace {
-
-struct Dir {
-    std::filesystem::path path = std::filesystem::temp_directory_path() /
-                                 ("scalemesh-volmsh-" + std::to_string(std::random_device{}()));
-    Dir() { std::filesystem::create_directories(path); }
-    ~Dir() { std::filesystem::remove_all(path); }
-};
 
 TetMesh sample()
 {
@@ -40,7 +35,7 @@ TEST(VolumeMsh, RoundTripsNodesTetsGroupsAndViews)
 {
     const TetMesh mesh = sample();
     for (double version : {4.1, 2.2}) {
-        const Dir dir;
+        const TempDir dir;
         const auto file = dir.path / "mesh.msh";
         write_volume_msh(mesh, file, {.msh_version = version});
         GmshSession session;
@@ -75,7 +70,7 @@ TEST(VolumeMsh, RoundTripsNodesTetsGroupsAndViews)
         EXPECT_EQ(views.size(), 2u);
     }
     // The views are in the file itself.
-    const Dir dir;
+    const TempDir dir;
     write_volume_msh(mesh, dir.path / "mesh.msh");
     const std::string text = read_text(dir.path / "mesh.msh");
     EXPECT_NE(text.find("$NodeData"), std::string::npos);
@@ -85,7 +80,7 @@ TEST(VolumeMsh, RoundTripsNodesTetsGroupsAndViews)
 
 TEST(VolumeVtk, IsAWellFormedUnstructuredGrid)
 {
-    const Dir dir;
+    const TempDir dir;
     const TetMesh mesh = sample();
     write_volume_vtk(mesh, dir.path / "mesh.vtk");
     const std::string text = read_text(dir.path / "mesh.vtk");
@@ -98,7 +93,7 @@ TEST(VolumeVtk, IsAWellFormedUnstructuredGrid)
 
 TEST(VolumeWriters, RefuseInvalidMeshesAndWriteNothing)
 {
-    const Dir dir;
+    const TempDir dir;
     TetMesh inverted = sample();
     std::swap(inverted.tets[0][0], inverted.tets[0][1]);
     EXPECT_THROW(write_volume_msh(inverted, dir.path / "a.msh"), StageError);
@@ -114,7 +109,7 @@ TEST(VolumeMsh, GmshToFoamAgreesWithOurPolyMeshWriter)
 {
     if (!openfoam_available()) GTEST_SKIP() << "OpenFOAM (Debian package openfoam) is not installed";
     const TetMesh mesh = sample();
-    const Dir via_gmsh, ours;
+    const TempDir via_gmsh, ours;
     write_volume_msh(mesh, via_gmsh.path / "mesh.msh", {.msh_version = 2.2});
     write_openfoam_case(via_gmsh.path, {"wall"}, {PatchRole::Wall}); // gmshToFoam needs system/
     const std::string log = run_openfoam("gmshToFoam mesh.msh -case .", via_gmsh.path, "gmshToFoam.log");

@@ -7,6 +7,8 @@
 #include "isosurface/marching_cubes.h"
 #include "phantom/phantom.h"
 
+#include "support/temp_dir.h"
+
 #include <gtest/gtest.h>
 #include <openvdb/io/File.h>
 
@@ -16,19 +18,12 @@
 namespace scalemesh {
 namespace {
 
-struct Scratch {
-    std::filesystem::path dir = std::filesystem::temp_directory_path() /
-                                ("scalemesh-vdb-" + std::to_string(std::random_device{}()));
-    Scratch() { std::filesystem::create_directories(dir); }
-    ~Scratch() { std::filesystem::remove_all(dir); }
-};
-
 TEST(VdbImporter, RoundTripsAPhantomWithItsTransform)
 {
-    const Scratch s;
+    const TempDir s;
     const auto grid = voxelize(*make_shape("torus", 0.4), {.voxel_size = 0.4});
-    write_vdb(*grid, s.dir / "torus.vdb");
-    const auto back = read_vdb(s.dir / "torus.vdb");
+    write_vdb(*grid, s.path / "torus.vdb");
+    const auto back = read_vdb(s.path / "torus.vdb");
     EXPECT_EQ(back->getName(), "label");
     EXPECT_EQ(back->getGridClass(), openvdb::GRID_FOG_VOLUME);
     EXPECT_DOUBLE_EQ(back->voxelSize().x(), 0.4);
@@ -45,7 +40,7 @@ TEST(VdbImporter, RoundTripsAPhantomWithItsTransform)
 
 TEST(VdbImporter, PicksTheNamedGridAndConvertsIntegerLabels)
 {
-    const Scratch s;
+    const TempDir s;
     openvdb::initialize();
     auto vector_grid = openvdb::Vec3SGrid::create();
     vector_grid->setName("velocity");
@@ -56,18 +51,18 @@ TEST(VdbImporter, PicksTheNamedGridAndConvertsIntegerLabels)
     auto other = openvdb::FloatGrid::create(0.0f);
     other->setName("other");
     other->tree().setValueOn({5, 5, 5}, 1.0f);
-    openvdb::io::File file((s.dir / "multi.vdb").string());
+    openvdb::io::File file((s.path / "multi.vdb").string());
     file.write({vector_grid, labels, other});
     file.close();
 
-    const auto first = read_vdb(s.dir / "multi.vdb"); // the first scalar grid, skipping the vector grid
+    const auto first = read_vdb(s.path / "multi.vdb"); // the first scalar grid, skipping the vector grid
     EXPECT_EQ(first->getName(), "labels");
     EXPECT_EQ(first->tree().getValue({1, 0, 0}), 4.0f);
     EXPECT_DOUBLE_EQ(first->voxelSize().x(), 2.0);
-    EXPECT_EQ(read_vdb(s.dir / "multi.vdb", {"other"})->getName(), "other");
-    EXPECT_THROW(read_vdb(s.dir / "multi.vdb", {"velocity"}), InputError);
+    EXPECT_EQ(read_vdb(s.path / "multi.vdb", {"other"})->getName(), "other");
+    EXPECT_THROW(read_vdb(s.path / "multi.vdb", {"velocity"}), InputError);
     try {
-        read_vdb(s.dir / "multi.vdb", {"density"});
+        read_vdb(s.path / "multi.vdb", {"density"});
         FAIL() << "a missing grid must be refused";
     } catch (const InputError& e) {
         EXPECT_NE(std::string(e.what()).find("'labels'"), std::string::npos) << "lists the grids: " << e.what();
@@ -76,7 +71,7 @@ TEST(VdbImporter, PicksTheNamedGridAndConvertsIntegerLabels)
 
 TEST(VdbImporter, ReadsLevelSetsAsLevelSets)
 {
-    const Scratch s;
+    const TempDir s;
     auto ls = openvdb::FloatGrid::create(3.0f);
     ls->setGridClass(openvdb::GRID_LEVEL_SET);
     ls->setName("surface");
@@ -87,8 +82,8 @@ TEST(VdbImporter, ReadsLevelSetsAsLevelSets)
                 if (std::abs(d) < 3.0f) ls->tree().setValueOn({x, y, z}, d);
                 else if (d < 0) ls->tree().setValueOff({x, y, z}, -3.0f);
             }
-    write_vdb(*ls, s.dir / "ls.vdb");
-    const auto back = read_vdb(s.dir / "ls.vdb");
+    write_vdb(*ls, s.path / "ls.vdb");
+    const auto back = read_vdb(s.path / "ls.vdb");
     EXPECT_TRUE(is_level_set(*back));
     const SurfaceMesh mesh = marching_cubes(*back);
     EXPECT_TRUE(surface_facts(mesh).closed_manifold());
@@ -97,36 +92,36 @@ TEST(VdbImporter, ReadsLevelSetsAsLevelSets)
 
 TEST(VdbImporter, RefusesMissingCorruptAndEmptyFiles)
 {
-    const Scratch s;
-    EXPECT_THROW(read_vdb(s.dir / "missing.vdb"), IoError);
-    std::ofstream(s.dir / "text.vdb") << "hello";
-    EXPECT_THROW(read_vdb(s.dir / "text.vdb"), InputError);
-    std::ofstream(s.dir / "zero.vdb");
-    EXPECT_THROW(read_vdb(s.dir / "zero.vdb"), InputError);
+    const TempDir s;
+    EXPECT_THROW(read_vdb(s.path / "missing.vdb"), IoError);
+    std::ofstream(s.path / "text.vdb") << "hello";
+    EXPECT_THROW(read_vdb(s.path / "text.vdb"), InputError);
+    std::ofstream(s.path / "zero.vdb");
+    EXPECT_THROW(read_vdb(s.path / "zero.vdb"), InputError);
 
     const auto grid = voxelize(*make_shape("sphere", 0.5), {.voxel_size = 0.5});
-    write_vdb(*grid, s.dir / "good.vdb");
-    std::ifstream in(s.dir / "good.vdb", std::ios::binary);
+    write_vdb(*grid, s.path / "good.vdb");
+    std::ifstream in(s.path / "good.vdb", std::ios::binary);
     const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     // A file cut short anywhere is refused, never read as a smaller grid.
     std::mt19937 rng(3);
     for (int trial = 0; trial < 60; ++trial) {
         const size_t length = trial < 8 ? static_cast<size_t>(trial) : rng() % bytes.size();
-        std::ofstream(s.dir / "broken.vdb", std::ios::binary) << bytes.substr(0, length);
-        EXPECT_THROW(read_vdb(s.dir / "broken.vdb"), InputError) << "cut at " << length << " of " << bytes.size();
+        std::ofstream(s.path / "broken.vdb", std::ios::binary) << bytes.substr(0, length);
+        EXPECT_THROW(read_vdb(s.path / "broken.vdb"), InputError) << "cut at " << length << " of " << bytes.size();
     }
 
     auto empty = openvdb::FloatGrid::create(0.0f);
-    write_vdb(*empty, s.dir / "empty.vdb");
-    EXPECT_THROW(read_vdb(s.dir / "empty.vdb"), InputError);
+    write_vdb(*empty, s.path / "empty.vdb");
+    EXPECT_THROW(read_vdb(s.path / "empty.vdb"), InputError);
 }
 
 TEST(VdbImporter, WriteLeavesNoFileWhenTheDirectoryIsMissing)
 {
-    const Scratch s;
+    const TempDir s;
     const auto grid = voxelize(*make_shape("sphere", 1.0), {.voxel_size = 1.0});
-    EXPECT_THROW(write_vdb(*grid, s.dir / "no" / "such.vdb"), IoError);
-    EXPECT_TRUE(std::filesystem::is_empty(s.dir));
+    EXPECT_THROW(write_vdb(*grid, s.path / "no" / "such.vdb"), IoError);
+    EXPECT_TRUE(std::filesystem::is_empty(s.path));
 }
 
 } // namespace

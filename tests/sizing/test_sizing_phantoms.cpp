@@ -44,17 +44,25 @@ TEST(SizingPhantom, SphereDiameterWithinThreePercentAtMostVertices)
     for (double D_out : s.size.D_out) EXPECT_TRUE(std::isinf(D_out));
 }
 
+// How many vertices `select` picks, and how many of those have D within
+// `tolerance` (relative) of `expected`.
+template <typename Select>
+std::pair<size_t, size_t> close_to(const Sized& s, Select select, double expected, double tolerance)
+{
+    size_t picked = 0, close = 0;
+    for (size_t i = 0; i < s.mesh.points.size(); ++i) {
+        if (!select(s.mesh.points[i])) continue;
+        ++picked;
+        close += std::abs(s.size.D[i] - expected) <= tolerance * expected;
+    }
+    return {picked, close};
+}
+
 TEST(SizingPhantom, TubeWallDiameterWithinFivePercentAwayFromTheEnds)
 {
     const double r = 3.0, half_length = 15.0;
-    const Sized s = size_phantom("tube", 0.5);
-    size_t wall = 0, close = 0;
-    for (size_t i = 0; i < s.mesh.points.size(); ++i) {
-        const Vec3& p = s.mesh.points[i];
-        if (std::abs(p.z) > half_length - 2 * r) continue;
-        ++wall;
-        close += std::abs(s.size.D[i] - 2 * r) <= 0.05 * 2 * r;
-    }
+    const auto [wall, close] = close_to(
+        size_phantom("tube", 0.5), [&](const Vec3& p) { return std::abs(p.z) <= half_length - 2 * r; }, 2 * r, 0.05);
     ASSERT_GT(wall, 100u);
     EXPECT_GE(double(close) / double(wall), 0.95) << close << " of " << wall;
 }
@@ -62,14 +70,9 @@ TEST(SizingPhantom, TubeWallDiameterWithinFivePercentAwayFromTheEnds)
 TEST(SizingPhantom, TorusOuterEquatorSeesTheTubeDiameter)
 {
     const double R = 10.0, r = 4.0;
-    const Sized s = size_phantom("torus", 0.5);
-    size_t equator = 0, close = 0;
-    for (size_t i = 0; i < s.mesh.points.size(); ++i) {
-        const Vec3& p = s.mesh.points[i];
-        if (std::abs(p.z) > 0.5 || std::hypot(p.x, p.y) < R + r - 0.5) continue;
-        ++equator;
-        close += std::abs(s.size.D[i] - 2 * r) <= 0.05 * 2 * r;
-    }
+    const auto [equator, close] = close_to(
+        size_phantom("torus", 0.5),
+        [&](const Vec3& p) { return std::abs(p.z) <= 0.5 && std::hypot(p.x, p.y) >= R + r - 0.5; }, 2 * r, 0.05);
     ASSERT_GT(equator, 20u);
     EXPECT_GE(double(close) / double(equator), 0.95) << close << " of " << equator;
 }
