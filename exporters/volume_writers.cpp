@@ -30,10 +30,10 @@ void validate(const TetMesh& mesh, const char* format)
     if (!mesh.boundary_patch.empty() && mesh.boundary_patch.size() != mesh.boundary_faces.size())
         throw StageError(stage, "boundary_patch does not have one entry per boundary face");
     for (const VertexField& f : mesh.point_fields)
-        if (f.values.size() != mesh.points.size())
+        if (f.values.size() > mesh.points.size())
             throw InputError("point field '" + f.name + "' has " + std::to_string(f.values.size()) + " values for " +
                                  std::to_string(mesh.points.size()) + " points",
-                             "give one value per point");
+                             "give one value per point, or per surface point (the first points)");
     for (const auto& [name, values] : mesh.tet_fields)
         if (values.size() != mesh.tets.size())
             throw InputError("tet field '" + name + "' has " + std::to_string(values.size()) + " values for " +
@@ -108,7 +108,8 @@ void write_volume_msh(const TetMesh& mesh, const std::filesystem::path& path, co
 
         for (const VertexField& field : mesh.point_fields) {
             const int view = model.add_view(field.name);
-            gmsh::view::addHomogeneousModelData(view, 0, model.name(), "NodeData", node_tags, field.values, 0.0, 1);
+            const std::vector<size_t> tags(node_tags.begin(), node_tags.begin() + field.values.size());
+            gmsh::view::addHomogeneousModelData(view, 0, model.name(), "NodeData", tags, field.values, 0.0, 1);
             gmsh::view::write(view, out.temporary().string(), /*append=*/true);
         }
         for (const auto& [name, values] : mesh.tet_fields) {
@@ -146,8 +147,8 @@ void write_volume_vtk(const TetMesh& mesh, const std::filesystem::path& path)
         if (!mesh.point_fields.empty()) f << "POINT_DATA " << mesh.points.size() << '\n';
         for (const VertexField& field : mesh.point_fields) {
             f << "SCALARS " << (field.name.empty() ? "field" : field.name) << " double 1\nLOOKUP_TABLE default\n";
-            for (double v : field.values) {
-                write_number(f, v);
+            for (size_t i = 0; i < mesh.points.size(); ++i) {
+                write_number(f, i < field.values.size() ? field.values[i] : -1.0);
                 f << '\n';
             }
         }

@@ -20,8 +20,9 @@ struct VolumeMshOptions {
 // triangles (type 2) in one discrete surface per patch, each a physical group
 // (tag patch id + 1) named from mesh.patch_names ("wall" for patch 0 when
 // absent), so patches can be picked in the Gmsh GUI. Node i has tag i + 1.
-// point_fields are appended as "NodeData" views, tet_fields as "ElementData"
-// views on the tets, all in the same file (Gmsh lists them under
+// point_fields are appended as "NodeData" views (a field with fewer values
+// than points covers the first points only, e.g. the surface nodes), tet_fields
+// as "ElementData" views on the tets, all in the same file (Gmsh lists them under
 // Post-processing). The mesh is validated first as write_polymesh does (a
 // StageError and nothing written when it fails); the file appears whole or
 // not at all. Throws InputError for a bad version or field size, IoError when
@@ -29,7 +30,8 @@ struct VolumeMshOptions {
 void write_volume_msh(const TetMesh& mesh, const std::filesystem::path& path, const VolumeMshOptions& options = {});
 
 // Legacy VTK UNSTRUCTURED_GRID, ASCII: points, tets (cell type 10), the
-// point fields as POINT_DATA and the tet fields as CELL_DATA. Same validation
+// point fields as POINT_DATA (-1 at points a partial field does not cover)
+// and the tet fields as CELL_DATA. Same validation
 // and atomicity as write_volume_msh.
 void write_volume_vtk(const TetMesh& mesh, const std::filesystem::path& path);
 

@@ -98,6 +98,9 @@ TEST(VolumeWriters, RefuseInvalidMeshesAndWriteNothing)
     std::swap(inverted.tets[0][0], inverted.tets[0][1]);
     EXPECT_THROW(write_volume_msh(inverted, dir.path / "a.msh"), StageError);
     EXPECT_THROW(write_volume_vtk(inverted, dir.path / "a.vtk"), StageError);
+    TetMesh long_field = sample();
+    long_field.point_fields[0].values.push_back(0.0);
+    EXPECT_THROW(write_volume_msh(long_field, dir.path / "b.msh"), InputError);
     TetMesh short_field = sample();
     short_field.tet_fields[0].second.pop_back();
     EXPECT_THROW(write_volume_msh(short_field, dir.path / "b.msh"), InputError);

@@ -81,23 +81,23 @@ TEST(SizingPhantom, TwinTubesSeeTheGapOutwardsOnTheFacingWalls)
 {
     const double h = 0.5, gap = 1.5 * h, r = 3.0;
     const Sized s = size_phantom("twin_tubes", h);
-    size_t facing = 0, finite = 0;
-    double largest = 0;
+    size_t facing = 0, finite = 0, square = 0, near_gap = 0;
     for (size_t i = 0; i < s.mesh.points.size(); ++i) {
         const Vec3& p = s.mesh.points[i];
         const Vec3& n = s.size.normals[i];
         if (std::abs(p.x) > gap || std::abs(n.x) < 0.9 || std::abs(p.y) > 0.5 * r || std::abs(p.z) > 8.0) continue;
         ++facing;
-        if (std::isfinite(s.size.D_out[i])) {
-            ++finite;
-            largest = std::max(largest, s.size.D_out[i]);
-        }
+        finite += std::isfinite(s.size.D_out[i]);
+        // Where the walls face each other squarely the ray crosses the gap
+        // straight; each smoothed surface lies within half a voxel of its
+        // analytic wall, so D_out is the gap to within a voxel.
+        if (std::abs(p.y) > 0.5) continue;
+        ++square;
+        near_gap += std::abs(s.size.D_out[i] - gap) <= h;
     }
-    ASSERT_GT(facing, 20u);
+    ASSERT_GT(square, 20u);
     EXPECT_EQ(finite, facing);
-    // The surfaces sit within half a voxel of the analytic walls, which are
-    // 1.5 voxels apart: the outward diameter stays within about two voxels.
-    EXPECT_LE(largest, gap + 2 * h) << largest;
+    EXPECT_EQ(near_gap, square); // measured: 0.922 to 0.969 mm for a 0.75 mm gap
     // The D_out bound of Algorithm 1 pulls d below 2 (M/K) D_out there.
     for (size_t i = 0; i < s.mesh.points.size(); ++i) {
         if (std::isfinite(s.size.D_out[i])) {
