@@ -90,6 +90,9 @@ int main(int argc, char** argv)
     surface_cmd->add_option("--smooth", sweeps,
                             "Volume-conserving smoothing sweeps (default 0, or 10 with --sizing)");
     surface_cmd->add_flag("--sizing", sizing, "Compute D, D_out and d (Algorithm 1) and write them as fields");
+    bool remesh = false;
+    surface_cmd->add_flag("--remesh", remesh,
+                          "Also remesh to edge length K/M d (Algorithm 6) and write d and the edge-length ratio");
     surface_cmd->add_option("--L-min", L_min, "Smallest feature size, e.g. \"0.5 voxels\" or \"1 mm\"");
     surface_cmd->add_option("--L-max", L_max, "Largest feature size (default: the largest extent)");
 
@@ -126,13 +129,15 @@ int main(int argc, char** argv)
             if (!grid_name.empty()) text += "grid = " + CLI::detail::to_string(std::quoted(grid_name)) + "\n";
             if (iso) text += "iso = " + std::to_string(*iso) + "\n";
             text += "connectivity = " + std::to_string(connectivity) + "\n";
+            sizing = sizing || remesh;
             text += "[smoothing]\nsweeps = " + std::to_string(sweeps.value_or(sizing ? 10 : 0)) + "\n";
             text += "[sizing]\n";
             if (!L_min.empty()) text += "L_min = " + CLI::detail::to_string(std::quoted(L_min)) + "\n";
             if (!L_max.empty()) text += "L_max = " + CLI::detail::to_string(std::quoted(L_max)) + "\n";
             const CaseConfig config = parse_case(text, ".", "command line");
-            const SurfaceRun run = run_surface_pipeline(config, {.sizing = sizing}, progress(verbosity));
-            write_surface(run.surface, surface_fields(run), surface_out);
+            const PipelineRun run =
+                run_pipeline(config, {.sizing = sizing, .remesh = remesh, .volume = false}, progress(verbosity));
+            write_surface(final_surface(run), surface_fields(run, config.K, config.M), surface_out);
             if (verbosity != Verbosity::Quiet) std::fprintf(stderr, "scalemesh: wrote %s\n", surface_out.c_str());
         } else if (*run_cmd) {
             const CaseResult result = run_case(case_dir, progress(verbosity));

@@ -119,7 +119,8 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
         msg << source << ":" << e.source().begin.line << ":" << e.source().begin.column << ": " << e.description();
         throw InputError(msg.str(), "fix the TOML syntax at that line");
     }
-    static const std::vector<std::string> sections = {"input", "smoothing", "sizing", "output", "run"};
+    static const std::vector<std::string> sections = {"input",  "smoothing", "sizing", "remeshing",
+                                                      "volume", "flow",      "output", "run"};
     for (const auto& [key, value] : root) {
         if (std::find(sections.begin(), sections.end(), std::string(key.str())) == sections.end() || !value.is_table())
             throw InputError(source + ": '" + std::string(key.str()) + "' is not a known section",
@@ -175,23 +176,51 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
                          "L_min <= L_max is required: the zone of scale invariance is [L_min, L_max]");
     config.curvature = sizing.get<bool>("curvature").value_or(false);
 
-    const Section output(root["output"].as_table(), "output", source, {"surface", "msh_version", "msh_binary"});
-    if (output.has("surface")) {
-        const toml::array* files = root["output"]["surface"].as_array();
+    const Section remeshing(root["remeshing"].as_table(), "remeshing", source, {"cycles"});
+    const int64_t cycles = remeshing.get<int64_t>("cycles").value_or(3);
+    if (cycles < 0 || cycles > 100)
+        throw InputError(remeshing.where("cycles") + " = " + std::to_string(cycles) + " is out of range",
+                         "choose 0 (no remeshing, no volume mesh) to 100; the paper uses 3");
+    config.remesh_cycles = static_cast<int>(cycles);
+
+    const Section volume(root["volume"].as_table(), "volume", source, {"enabled", "growth"});
+    config.volume = volume.get<bool>("enabled").value_or(true);
+    config.growth = volume.number("growth", 1.0, 1.0, 3.0);
+
+    const Section flow(root["flow"].as_table(), "flow", source, {"viscosity", "inlet_speed"});
+    config.viscosity = flow.number("viscosity", config.viscosity, 0, 1, true);
+    config.inlet_speed = flow.number("inlet_speed", config.inlet_speed, 0, 1e3, true);
+
+    const Section output(root["output"].as_table(), "output", source,
+                         {"surface", "volume", "openfoam", "openfoam_format", "msh_version", "msh_binary"});
+    // A list of output file names with one of the given extensions.
+    const auto file_list = [&](const std::string& key, const std::vector<std::string>& extensions,
+                               std::vector<std::string>& into) {
+        if (!output.has(key)) return;
+        const toml::array* files = root["output"][key].as_array();
+        const std::string valid = join(extensions);
         if (!files)
-            throw InputError(output.where("surface") + " must be a list of file names",
-                             "write surface = [\"surface.msh\", \"surface.vtk\"]");
-        config.surface_outputs.clear();
+            throw InputError(output.where(key) + " must be a list of file names",
+                             "write " + key + " = [\"" + key + extensions.front() + "\"]");
+        into.clear();
         for (const auto& item : *files) {
             const auto name = item.value<std::string>();
             const std::string ext = name ? std::filesystem::path(*name).extension().string() : "";
-            if (!name || (ext != ".msh" && ext != ".vtk" && ext != ".stl") ||
+            if (!name || std::find(extensions.begin(), extensions.end(), ext) == extensions.end() ||
                 std::filesystem::path(*name).has_parent_path())
-                throw InputError(output.where("surface") + " holds an invalid entry",
-                                 "give file names without directories ending in .msh, .vtk or .stl");
-            config.surface_outputs.push_back(*name);
+                throw InputError(output.where(key) + " holds an invalid entry",
+                                 "give file names without directories ending in " + valid);
+            into.push_back(*name);
         }
-    }
+    };
+    file_list("surface", {".msh", ".vtk", ".stl"}, config.surface_outputs);
+    file_list("volume", {".msh", ".vtk"}, config.volume_outputs);
+    config.openfoam = output.get<bool>("openfoam").value_or(true);
+    const std::string foam_format = output.get<std::string>("openfoam_format").value_or("ascii");
+    if (foam_format != "ascii" && foam_format != "binary")
+        throw InputError(output.where("openfoam_format") + " = \"" + foam_format + "\" is not a format",
+                         "choose \"ascii\" or \"binary\"");
+    config.openfoam_binary = foam_format == "binary";
     config.msh_version = output.get<double>("msh_version").value_or(4.1);
     if (config.msh_version != 4.1 && config.msh_version != 2.2)
         throw InputError(output.where("msh_version") + " must be 4.1 or 2.2",

@@ -49,8 +49,22 @@ struct CaseConfig {
     std::optional<Length> L_max;    // default: the largest extent of the surface
     bool curvature = false;         // eq. (12)
 
+    // [remeshing], Algorithm 6's surface loop.
+    int remesh_cycles = 3;          // 0 skips remeshing (and the volume mesh)
+
+    // [volume], Algorithms 4 and 5, section 2.4.
+    bool volume = true;             // build the layered volume mesh
+    double growth = 1.0;            // layer thickness ratio, >= 1; 1 = uniform layers as in the paper
+
+    // [flow], the OpenFOAM case (SI units).
+    double viscosity = 3.3e-6;      // m^2/s, kinematic; blood about 3.3e-6
+    double inlet_speed = 0.1;       // m/s
+
     // [output]
     std::vector<std::string> surface_outputs{"surface.msh", "surface.vtk"};
+    std::vector<std::string> volume_outputs{"mesh.msh"};
+    bool openfoam = true;           // constant/polyMesh, system/, constant/ (and 0/ with openings)
+    bool openfoam_binary = false;
     double msh_version = 4.1;
     bool msh_binary = false;
 

@@ -3,7 +3,11 @@
 #include "core/atomic_file.h"
 #include "core/errors.h"
 #include "core/version.h"
+#include "exporters/openfoam_case.h"
+#include "exporters/polymesh_writer.h"
 #include "exporters/surface_writers.h"
+#include "exporters/volume_writers.h"
+#include "volume/quality.h"
 
 #include <nlohmann/json.hpp>
 
@@ -54,9 +58,9 @@ void write_text_file(const std::filesystem::path& path, const std::string& text)
     out.commit();
 }
 
-std::string report_json(const CaseConfig& config, const SurfaceRun& run,
-                        const std::vector<std::filesystem::path>& written)
+std::string report_json(const CaseConfig& config, const CaseResult& result)
 {
+    const PipelineRun& run = result.run;
     nlohmann::json report;
     report["scalemesh_version"] = SCALEMESH_VERSION;
     report["input"] = {{"source", run.input}, {"checksum_fnv1a64", run.input_checksum}, {"voxel_width_mm", run.voxel_width}};
@@ -89,10 +93,63 @@ std::string report_json(const CaseConfig& config, const SurfaceRun& run,
                             {"seconds_rays", s.seconds_rays},
                             {"seconds_gradient_limiting", s.seconds_limit}};
     }
-    report["volume_mesh"] = "not produced: this version builds the surface and its feature size field only";
+    if (run.remeshed) {
+        const RemeshResult& r = *run.remeshed;
+        const std::vector<VertexField> fields = surface_fields(run, config.K, config.M);
+        report["remeshing"] = {{"merges", r.merges},
+                               {"swaps", r.swaps},
+                               {"bisections", r.bisections},
+                               {"max_damage_mm", r.max_damage},
+                               {"edge_length_ratio", field_stats(fields.back().values)},
+                               {"d_mm", field_stats(r.sizing.d)}};
+        report["remeshed_surface"] = facts_json(surface_facts(r.surface));
+    }
+    if (run.volume) {
+        const VolumeResult& v = *run.volume;
+        const TetMeshFacts facts = tet_mesh_facts(v.mesh);
+        const auto quality = [](const QualityReport& q) {
+            return nlohmann::json{{"tets", q.tets},
+                                  {"min_aspect_ratio", q.min_aspect_ratio},
+                                  {"mean_aspect_ratio", q.mean_aspect_ratio},
+                                  {"min_dihedral_deg", q.min_dihedral_deg},
+                                  {"fraction_below_0_1", q.fraction_below_0_1},
+                                  {"below_0_02", q.below_0_02},
+                                  {"aspect_ratio_histogram_20_bins", q.histogram}};
+        };
+        int64_t full = 0, nodes = static_cast<int64_t>(v.realised_layers.size());
+        const int32_t layers = static_cast<int32_t>(config.M) / 2;
+        for (int32_t k : v.realised_layers) full += k >= layers;
+        report["volume"] = {{"points", v.mesh.points.size()},
+                            {"tets", v.mesh.tets.size()},
+                            {"volume_mm3", facts.volume},
+                            {"enclosed_volume_mm3", signed_volume(run.remeshed->surface)},
+                            {"boundary_matches_surface", facts.boundary_matches},
+                            {"nonpositive_tets", facts.nonpositive_tets},
+                            {"surface_nodes_with_all_layers", full},
+                            {"surface_nodes", nodes},
+                            {"first_layer_anisotropy_median", v.first_layer_anisotropy_median},
+                            {"inserted_points", v.inserted_points},
+                            {"offset_points", v.offset_points},
+                            {"flips_3_2", v.flips_32},
+                            {"flips_2_3", v.flips_23},
+                            {"flips_4_4", v.flips_44},
+                            {"quality_before_flips", quality(v.before_flips)},
+                            {"quality_after_flips", quality(v.after_flips)},
+                            {"quality_after_sliver_removal", quality(v.after_slivers)}};
+    } else {
+        report["volume"] = "not built: [remeshing] cycles = 0 or [volume] enabled = false";
+    }
+    if (result.polymesh) {
+        report["openfoam"] = {{"cells", result.polymesh->cells},
+                              {"faces", result.polymesh->faces},
+                              {"internal_faces", result.polymesh->internal_faces},
+                              {"patch_faces", result.polymesh->patch_faces},
+                              {"units", "m"},
+                              {"flow_fields", result.flow_case ? "written (0/U, 0/p)"
+                                                               : "not written: the mesh has no inlet and outlet"}};
+    }
     nlohmann::json files = nlohmann::json::array();
-    for (const auto& p : written) files.push_back(p.filename().string());
-    files.push_back("report.json");
+    for (const auto& p : result.written) files.push_back(std::filesystem::relative(p, config.directory).string());
     report["files"] = files;
     return report.dump(2) + "\n";
 }
@@ -101,24 +158,52 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
 {
     const CaseConfig config = read_case(dir);
     CaseResult result;
-    result.run = run_surface_pipeline(config, {.sizing = true}, listener);
+    const bool volume = config.volume && config.remesh_cycles > 0;
+    result.run = run_pipeline(config, {.sizing = true, .remesh = config.remesh_cycles > 0, .volume = volume}, listener);
 
-    // Every output is finished under a temporary name first and moved into
+    // The outputs are finished under temporary names first and moved into
     // place only when all are complete, so a failure (or an interruption,
     // through remove_pending_outputs) leaves the case directory as it was.
+    // The polyMesh writer validates the mesh before writing anything and
+    // moves its files into place itself, last of the meshes.
     std::vector<std::unique_ptr<AtomicOutput>> pending;
-    const std::vector<VertexField> fields = surface_fields(result.run);
-    SurfaceWriteOptions options;
-    options.msh_version = config.msh_version;
-    options.msh_binary = config.msh_binary;
-    for (const std::string& name : config.surface_outputs) {
+    const auto stage = [&](const std::string& name) {
         pending.push_back(std::make_unique<AtomicOutput>(dir / name));
-        write_surface(result.run.surface, fields, pending.back()->temporary(), options);
         result.written.push_back(dir / name);
+        return pending.back()->temporary();
+    };
+    SurfaceWriteOptions surface_options;
+    surface_options.msh_version = config.msh_version;
+    surface_options.msh_binary = config.msh_binary;
+    const std::vector<VertexField> fields = surface_fields(result.run, config.K, config.M);
+    for (const std::string& name : config.surface_outputs)
+        write_surface(final_surface(result.run), fields, stage(name), surface_options);
+
+    if (result.run.volume) {
+        const TetMesh mesh = export_mesh(result.run, config.K, config.M);
+        for (const std::string& name : config.volume_outputs) {
+            if (std::filesystem::path(name).extension() == ".vtk") write_volume_vtk(mesh, stage(name));
+            else write_volume_msh(mesh, stage(name), {.msh_version = config.msh_version, .binary = config.msh_binary});
+        }
+        if (config.openfoam) {
+            const PolyMeshCounts counts =
+                write_polymesh(mesh, dir, {.binary = config.openfoam_binary, .scale = 1e-3, .patch_types = {}});
+            result.polymesh = counts;
+            std::vector<std::string> names;
+            std::vector<PatchRole> roles;
+            for (size_t p = 0; p < counts.patch_faces.size(); ++p) {
+                names.push_back(p < mesh.patch_names.size() ? mesh.patch_names[p] : (p == 0 ? "wall" : "patch_" + std::to_string(p)));
+                roles.push_back(PatchRole::Wall);
+            }
+            result.flow_case = write_openfoam_case(dir, names, roles,
+                                                   {.kinematic_viscosity = config.viscosity,
+                                                    .inlet_speed = config.inlet_speed});
+            result.written.push_back(dir / "constant" / "polyMesh");
+            result.written.push_back(dir / "system");
+        }
     }
-    pending.push_back(std::make_unique<AtomicOutput>(dir / "report.json"));
-    write_text_file(pending.back()->temporary(), report_json(config, result.run, result.written));
-    result.written.push_back(dir / "report.json");
+
+    write_text_file(stage("report.json"), report_json(config, result));
     for (const auto& out : pending)
         if (std::filesystem::is_directory(out->path()))
             throw IoError(out->path().string(), "a directory has this name, so the output cannot be written; "

@@ -8,6 +8,7 @@
 #include <toml++/toml.h>
 
 #include <fstream>
+#include <regex>
 
 namespace scalemesh {
 namespace {
@@ -60,6 +61,45 @@ TEST_P(SampleCase, RunsAndMeetsItsExpectedBounds)
             const double voxels = report["input"]["inside_voxels"].get<double>() * h * h * h;
             EXPECT_LE(std::abs(surface["enclosed_volume_mm3"].get<double>() / voxels - 1.0), *value.value<double>());
         } else ADD_FAILURE() << "unknown key [surface] " << k << " in expected.toml";
+    }
+    // Every volume mesh must pass OpenFOAM's own check, with our counts.
+    if (report.contains("openfoam") && std::system("command -v checkMesh >/dev/null 2>&1") == 0) {
+        const std::string log = (dir / "checkMesh.log").string();
+        const std::string cmd = "cd '" + dir.string() + "' && WM_PROJECT_DIR=/usr/share/openfoam checkMesh -case . > '" +
+                                log + "' 2>&1";
+        ASSERT_EQ(std::system(cmd.c_str()), 0);
+        std::ifstream in(log);
+        const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        EXPECT_NE(text.find("\nMesh OK."), std::string::npos) << text;
+        std::smatch cells, volume;
+        ASSERT_TRUE(std::regex_search(text, cells, std::regex(R"(cells:\s+(\d+))")));
+        EXPECT_EQ(std::stol(cells[1]), report["openfoam"]["cells"].get<long>());
+        ASSERT_TRUE(std::regex_search(text, volume, std::regex(R"(Total volume = ([0-9.eE+-]+))")));
+        // checkMesh works in metres, the report in mm.
+        EXPECT_NEAR(std::stod(volume[1]) * 1e9, report["volume"]["volume_mm3"].get<double>(),
+                    1e-6 * report["volume"]["volume_mm3"].get<double>());
+    }
+    if (const toml::table* volume = expected["volume"].as_table()) {
+        const nlohmann::json& v = report["volume"];
+        ASSERT_TRUE(v.is_object()) << "no volume mesh in the report";
+        for (const auto& [key, value] : *volume) {
+            const std::string k(key.str());
+            if (k == "boundary_matches_surface") EXPECT_EQ(v["boundary_matches_surface"].get<bool>(), *value.value<bool>());
+            else if (k == "volume_vs_surface")
+                EXPECT_LE(std::abs(v["volume_mm3"].get<double>() / v["enclosed_volume_mm3"].get<double>() - 1.0),
+                          *value.value<double>());
+            else if (k == "min_aspect_ratio") {
+                const auto [lo, hi] = bounds(value);
+                const double q = v["quality_after_sliver_removal"]["min_aspect_ratio"].get<double>();
+                EXPECT_GE(q, lo);
+                EXPECT_LE(q, hi);
+            } else if (k == "max_fraction_below_0_1")
+                EXPECT_LE(v["quality_after_sliver_removal"]["fraction_below_0_1"].get<double>(), *value.value<double>());
+            else if (k == "min_fraction_all_layers")
+                EXPECT_GE(v["surface_nodes_with_all_layers"].get<double>() / v["surface_nodes"].get<double>(),
+                          *value.value<double>());
+            else ADD_FAILURE() << "unknown key [volume] " << k << " in expected.toml";
+        }
     }
     if (const toml::table* sizing = expected["sizing"].as_table()) {
         const nlohmann::json& s = report["sizing"];

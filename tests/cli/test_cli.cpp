@@ -71,6 +71,27 @@ TEST(Cli, SurfaceWithSizingWritesTheFields)
         EXPECT_NE(text.find(field), std::string::npos) << field;
 }
 
+TEST(Cli, SurfaceRemeshWritesTheRemeshedSurfaceWithItsViews)
+{
+    const TempDir tmp;
+    const std::string vdb = (tmp.path / "torus.vdb").string(), out = (tmp.path / "torus.msh").string();
+    ASSERT_EQ(run_scalemesh({"phantom", "torus", "-o", vdb}).exit_code, 0);
+    const CommandResult r = run_scalemesh({"surface", vdb, "--remesh", "-o", out});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.err.find("remeshing"), std::string::npos) << r.err;
+    std::ifstream in(out);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    for (const std::string view : {"\"d\"", "\"edge_length_ratio\""}) EXPECT_NE(text.find(view), std::string::npos) << view;
+    // The remeshed surface is far coarser than the marching cubes one.
+    const std::string raw = (tmp.path / "raw.stl").string(), remeshed = (tmp.path / "remeshed.stl").string();
+    ASSERT_EQ(run_scalemesh({"surface", vdb, "-o", raw, "-q"}).exit_code, 0);
+    ASSERT_EQ(run_scalemesh({"surface", vdb, "--remesh", "-o", remeshed, "-q"}).exit_code, 0);
+    const SurfaceFacts a = surface_facts(read_stl(raw)), b = surface_facts(read_stl(remeshed));
+    EXPECT_TRUE(b.closed_manifold());
+    EXPECT_EQ(b.euler_characteristic, 0);
+    EXPECT_LT(b.triangles * 5, a.triangles);
+}
+
 TEST(Cli, SurfaceInputIsOrientedOutwardAndSized)
 {
     // The shared aorta surface is closed and genus 0 but wound inwards.

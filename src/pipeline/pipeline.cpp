@@ -1,4 +1,4 @@
-#include "pipeline/surface_pipeline.h"
+#include "pipeline/pipeline.h"
 
 #include "core/errors.h"
 #include "importers/stl_importer.h"
@@ -6,6 +6,7 @@
 #include "isosurface/marching_cubes.h"
 #include "phantom/phantom.h"
 #include "smoothing/volume_conserving_smoothing.h"
+#include "volume/quality.h"
 
 #include <algorithm>
 #include <chrono>
@@ -18,9 +19,14 @@ namespace scalemesh {
 
 namespace {
 
+// Attempts of the volume stage, and how much d shrinks near failing nodes
+// between them (section 2.3's "re-run with a higher surface density").
+constexpr int kConformityAttempts = 5;
+constexpr double kRefinementFactor = 0.7;
+
 class StageClock {
 public:
-    StageClock(SurfaceRun& run, const StageListener& listener, std::string name)
+    StageClock(PipelineRun& run, const StageListener& listener, std::string name)
         : run_(run), listener_(listener), name_(std::move(name)), start_(std::chrono::steady_clock::now())
     {
         if (listener_) listener_({name_, -1.0, ""});
@@ -33,7 +39,7 @@ public:
     }
 
 private:
-    SurfaceRun& run_;
+    PipelineRun& run_;
     const StageListener& listener_;
     std::string name_;
     std::chrono::steady_clock::time_point start_;
@@ -73,12 +79,31 @@ double mean_edge_length(const SurfaceMesh& mesh)
     return mesh.triangles.empty() ? 0.0 : sum / (3.0 * static_cast<double>(mesh.triangles.size()));
 }
 
+// Scales d down at the points of `surface` near the remeshed surface's
+// failing nodes: within one target edge length (K/M d) of one. Returns how
+// many points changed.
+int64_t refine_near(const SurfaceMesh& surface, const SurfaceMesh& remeshed, const std::vector<int32_t>& failing,
+                    double K_over_M, std::vector<double>& d)
+{
+    int64_t changed = 0;
+    for (size_t i = 0; i < surface.points.size(); ++i) {
+        const double reach = K_over_M * d[i];
+        for (int32_t node : failing)
+            if (norm2(surface.points[i] - remeshed.points[node]) <= reach * reach) {
+                d[i] *= kRefinementFactor;
+                ++changed;
+                break;
+            }
+    }
+    return changed;
+}
+
 } // namespace
 
-SurfaceRun run_surface_pipeline(const CaseConfig& config, const SurfaceRunOptions& options,
+PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& options,
                                 const StageListener& listener)
 {
-    SurfaceRun run;
+    PipelineRun run;
     SurfaceMesh surface;
     const std::filesystem::path file = config.file.empty() || config.file.is_absolute() || config.directory == "."
                                            ? config.file
@@ -164,23 +189,95 @@ SurfaceRun run_surface_pipeline(const CaseConfig& config, const SurfaceRunOption
         clock.done(summary.str());
     }
     run.surface = std::move(surface);
-    return run;
+
+    if (!options.remesh || !run.sizing) return run;
+    RemeshParams remesh;
+    remesh.K = config.K;
+    remesh.M = config.M;
+    remesh.cycles = config.remesh_cycles;
+    remesh.max_displacement = config.smoothing_reach.mm(run.voxel_width);
+    remesh.sizing.K = config.K;
+    remesh.sizing.M = config.M;
+    remesh.sizing.G = config.G;
+    remesh.sizing.L_min = run.L_min;
+    remesh.sizing.L_max = run.L_max;
+    remesh.sizing.curvature_term = config.curvature;
+    remesh.sizing.threads = config.threads;
+    VolumeParams volume;
+    volume.K = config.K;
+    volume.M = config.M;
+    volume.growth = config.growth;
+    volume.L_max = run.L_max;
+
+    // Section 2.3: where the volume mesh cannot conform to the surface, the
+    // surface is refined there (d reduced around the failing nodes) and
+    // remeshed, and the volume stage re-run, a bounded number of times.
+    std::vector<double> d = run.sizing->d;
+    for (int attempt = 0;; ++attempt) {
+        {
+            StageClock clock(run, listener, attempt == 0 ? "remeshing" : "remeshing (retry " + std::to_string(attempt) + ")");
+            run.remeshed = remesh_to_feature_size(run.surface, d, remesh);
+            const SurfaceFacts facts = surface_facts(run.remeshed->surface);
+            std::ostringstream summary;
+            summary << run.remeshed->merges << " merges, " << run.remeshed->swaps << " swaps, "
+                    << run.remeshed->bisections << " bisections; " << describe(facts);
+            clock.done(summary.str());
+        }
+        if (!options.volume) return run;
+        StageClock clock(run, listener, attempt == 0 ? "volume" : "volume (retry " + std::to_string(attempt) + ")");
+        try {
+            run.volume = build_volume_mesh(run.remeshed->surface, run.remeshed->sizing, volume);
+        } catch (const VolumeConformityError& e) {
+            if (attempt + 1 >= kConformityAttempts) throw;
+            const int64_t refined = refine_near(run.surface, run.remeshed->surface, e.failing_nodes, config.K / config.M, d);
+            run.refinements.push_back({attempt + 1, static_cast<int64_t>(e.failing_nodes.size()), refined, e.what()});
+            clock.done(std::string("did not conform: ") + e.what() + "; d reduced at " + std::to_string(refined) +
+                       " nodes, remeshing again");
+            continue;
+        }
+        const QualityReport& q = run.volume->after_slivers;
+        std::ostringstream summary;
+        summary << q.tets << " tets, " << run.volume->mesh.points.size() << " points; aspect ratio min "
+                << q.min_aspect_ratio << ", below 0.1: " << 100 * q.fraction_below_0_1 << "%";
+        clock.done(summary.str());
+        return run;
+    }
 }
 
-std::vector<VertexField> surface_fields(const SurfaceRun& run)
+const SurfaceMesh& final_surface(const PipelineRun& run) { return run.remeshed ? run.remeshed->surface : run.surface; }
+
+std::vector<VertexField> surface_fields(const PipelineRun& run, double K, double M)
 {
     std::vector<VertexField> fields;
-    if (run.sizing) {
-        fields.push_back({"D", run.sizing->D});
-        // Readers of legacy VTK and MSH choke on "inf": an escaped outward
-        // ray (D_out infinite) is written as -1.
-        std::vector<double> D_out = run.sizing->D_out;
-        for (double& v : D_out)
-            if (!std::isfinite(v)) v = -1.0;
-        fields.push_back({"D_out", std::move(D_out)});
-        fields.push_back({"d", run.sizing->d});
-    }
+    const FeatureSize* sizing = run.remeshed ? &run.remeshed->sizing : (run.sizing ? &*run.sizing : nullptr);
+    if (!sizing) return fields;
+    fields.push_back({"D", sizing->D});
+    // Readers of legacy VTK and MSH choke on "inf": an escaped outward ray
+    // (D_out infinite) is written as -1.
+    std::vector<double> D_out = sizing->D_out;
+    for (double& v : D_out)
+        if (!std::isfinite(v)) v = -1.0;
+    fields.push_back({"D_out", std::move(D_out)});
+    fields.push_back({"d", sizing->d});
+    if (run.remeshed) fields.push_back({"edge_length_ratio", edge_length_ratio(run.remeshed->surface, sizing->d, K, M)});
     return fields;
+}
+
+TetMesh export_mesh(const PipelineRun& run, double K, double M)
+{
+    TetMesh mesh = run.volume->mesh;
+    mesh.point_fields = surface_fields(run, K, M);
+    std::vector<double> aspect(mesh.tets.size()), layer(mesh.tets.size());
+    for (size_t t = 0; t < mesh.tets.size(); ++t) {
+        const Tet& tet = mesh.tets[t];
+        aspect[t] = tet_aspect_ratio(mesh.points[tet[0]], mesh.points[tet[1]], mesh.points[tet[2]], mesh.points[tet[3]]);
+        int32_t top = 0;
+        for (int32_t v : tet) top = std::max(top, run.volume->point_layer[v]);
+        layer[t] = top;
+    }
+    mesh.tet_fields.push_back({"aspect_ratio", std::move(aspect)});
+    mesh.tet_fields.push_back({"layer", std::move(layer)});
+    return mesh;
 }
 
 } // namespace scalemesh

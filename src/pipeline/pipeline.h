@@ -1,0 +1,76 @@
+#pragma once
+// Algorithm 6 in order: import, marching cubes (or a closed surface read
+// from a file), volume-conserving smoothing, the feature size field, surface
+// remeshing to it, and the layered volume mesh. Only this folder knows the
+// order of the stages.
+
+#include "core/surface_mesh.h"
+#include "pipeline/case_config.h"
+#include "remeshing/remesh.h"
+#include "sizing/feature_size.h"
+#include "volume/volume_mesh.h"
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace scalemesh {
+
+struct StageTime {
+    std::string name;
+    double seconds = 0;
+    std::string summary; // one line of what the stage made
+};
+
+// Called when a stage starts (seconds < 0) and when it ends.
+using StageListener = std::function<void(const StageTime&)>;
+
+struct PipelineRun {
+    std::string input;            // what was read: a path or "phantom:<shape>"
+    std::string input_checksum;   // FNV-1a 64 of the input file's bytes, hex; empty for phantoms
+    double voxel_width = 0;       // mm: the smallest voxel spacing, or for surface
+                                  // input the mean edge length of its triangles
+    int64_t inside_voxels = -1;   // active voxels of the label (phantoms and label grids)
+    SurfaceFacts isosurface;      // facts of the surface before smoothing
+    SurfaceMesh surface;          // after smoothing
+    SurfaceFacts facts;           // facts of `surface`
+    std::optional<FeatureSize> sizing;    // on `surface`
+    double L_min = 0, L_max = 0;  // mm, as used by sizing
+    std::optional<RemeshResult> remeshed; // the surface remeshed to K/M d, with its stable d
+    std::optional<VolumeResult> volume;   // the layered tet mesh inside the remeshed surface
+    struct Refinement {
+        int attempt;              // 1 for the first retry
+        int64_t failing_nodes;    // surface nodes the volume stage named
+        int64_t refined_points;   // points of the smoothed surface whose d was reduced
+        std::string reason;
+    };
+    std::vector<Refinement> refinements; // section 2.3 local refinements, in order
+    std::vector<StageTime> stages;
+};
+
+struct PipelineOptions {
+    bool sizing = true;  // compute the feature size field
+    bool remesh = false; // remesh the surface to it (needs sizing)
+    bool volume = false; // build the volume mesh (needs remesh)
+};
+
+// Runs the stages for `config`. Throws InputError, IoError or StageError.
+PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& options,
+                                const StageListener& listener = {});
+
+// The surface the run ends with: remeshed when it was, else smoothed.
+const SurfaceMesh& final_surface(const PipelineRun& run);
+
+// Per-vertex fields of the final surface for export: D, D_out and d (mm) when
+// sized; D_out is -1 where the outward ray escapes (infinite); with a
+// remeshed surface also the edge-length ratio of remeshing/remesh.h (mean
+// incident edge length over K/M d with the stable d, 1 on target).
+std::vector<VertexField> surface_fields(const PipelineRun& run, double K, double M);
+
+// The volume mesh ready for export: the surface fields on the surface nodes,
+// and per tet its aspect ratio (2 sqrt(6) r_in / l_max) and layer (the largest
+// layer index of its points, 0 for tets of surface points only).
+TetMesh export_mesh(const PipelineRun& run, double K, double M);
+
+} // namespace scalemesh

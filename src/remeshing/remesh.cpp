@@ -1,0 +1,422 @@
+#include "remeshing/remesh.h"
+
+#include "core/adjacency.h"
+#include "core/errors.h"
+#include "remeshing/criteria.h"
+#include "remeshing/halfedge_mesh.h"
+#include "smoothing/volume_conserving_smoothing.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <string>
+#include <tuple>
+#include <utility>
+
+namespace scalemesh {
+
+namespace {
+
+using remeshing::Check;
+using remeshing::Criteria;
+using remeshing::HalfedgeMesh;
+using remeshing::Verdict;
+
+void validate(const SurfaceMesh& surface, const std::vector<double>& d, const RemeshParams& params)
+{
+    auto bad = [](const std::string& what, const std::string& hint) { throw InputError("remeshing: " + what, hint); };
+    if (!(params.K > 0) || !std::isfinite(params.K)) bad("K is " + std::to_string(params.K), "use K > 0 (the paper uses 4.2)");
+    if (!(params.M >= 1) || !std::isfinite(params.M)) bad("M is " + std::to_string(params.M), "use M >= 1 (the paper uses 7)");
+    if (params.cycles < 0) bad("cycles is " + std::to_string(params.cycles), "use a count >= 0 (the paper uses 3)");
+    if (params.smoothing_sweeps < 0)
+        bad("smoothing sweeps is " + std::to_string(params.smoothing_sweeps), "use a count >= 0 (the paper uses 10)");
+    if (!(params.smoothing_omega > 0 && params.smoothing_omega <= 1))
+        bad("smoothing omega is " + std::to_string(params.smoothing_omega), "use a value in (0, 1] (the paper uses 0.1)");
+    if (!(params.max_displacement >= 0) || !std::isfinite(params.max_displacement))
+        bad("max_displacement is " + std::to_string(params.max_displacement), "use a distance >= 0 in mm (0: unbounded)");
+    const SizingParams& s = params.sizing;
+    if (!(s.L_min > 0 && s.L_min <= s.L_max) || !std::isfinite(s.L_max))
+        bad("sizing L_min and L_max are " + std::to_string(s.L_min) + " and " + std::to_string(s.L_max),
+            "give finite lengths in mm with 0 < L_min <= L_max, as for the sizing stage");
+    require_closed_manifold(surface, "the surface to remesh");
+    if (d.size() != surface.points.size())
+        bad("d has " + std::to_string(d.size()) + " values for " + std::to_string(surface.points.size()) + " points",
+            "pass compute_feature_size(surface, ...).d of this same surface");
+    for (size_t i = 0; i < d.size(); ++i)
+        if (!(d[i] >= 0) || !std::isfinite(d[i]))
+            bad("d of point " + std::to_string(i) + " is " + std::to_string(d[i]), "d must be finite and >= 0 (mm)");
+}
+
+double seconds_since(std::chrono::steady_clock::time_point start)
+{
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// The working state of Algorithm 6's surface loop. Merges and swaps are
+// driven by worklists: a node or face is looked at again only after an
+// operation nearby could have changed its verdict, which reaches the same
+// "until nothing changes" state as full sweeps at a fraction of the cost.
+class Remesher {
+public:
+    Remesher(const SurfaceMesh& surface, const std::vector<double>& d, const RemeshParams& params)
+        : params_(params), mesh_(surface), d_(d), drift_(d.size()), lost_(d.size(), 0.0), criteria_(params),
+          volume_(signed_volume(surface))
+    {
+        // A surface that touches itself has d = 0 there (sizing: D_out = 0);
+        // bisection would never end. A tenth of L_min is finer than any
+        // feature the method resolves.
+        for (double& v : d_) v = std::max(v, 0.1 * params.sizing.L_min);
+    }
+
+    RemeshResult run()
+    {
+        RemeshResult result;
+        for (int cycle = 0; cycle < params_.cycles; ++cycle) {
+            const auto start = std::chrono::steady_clock::now();
+            RemeshCycle counts;
+            mark_everything();
+            int64_t merged = 0, swapped = 0;
+            do {
+                merged = merge_nodes();
+                swapped = swap_edges();
+                counts.merges += merged;
+                counts.swaps += swapped;
+            } while (merged > 0 || swapped > 0);
+            if (params_.conserve_volume) counts.max_volume_offset = restore_volume();
+            counts.bisections = bisect_long_edges();
+            smooth();
+            counts.triangles = mesh_.live_faces();
+            counts.seconds = seconds_since(start);
+            result.merges += counts.merges;
+            result.swaps += counts.swaps;
+            result.bisections += counts.bisections;
+            result.cycles.push_back(counts);
+        }
+        std::vector<int32_t> vertex_of_point;
+        result.surface = mesh_.to_surface(&vertex_of_point);
+        result.target_d.reserve(vertex_of_point.size());
+        for (int32_t v : vertex_of_point) result.target_d.push_back(d_[v]);
+        result.max_damage = max_damage_;
+        const auto start = std::chrono::steady_clock::now();
+        result.sizing = compute_feature_size(result.surface, params_.sizing);
+        result.seconds_sizing = seconds_since(start);
+        return result;
+    }
+
+private:
+    // Algorithm 3, to a fixed point: each node i tries its neighbours j by
+    // increasing distance and merges into the first one that passes.
+    int64_t merge_nodes()
+    {
+        int64_t merges = 0;
+        std::vector<std::pair<double, int32_t>> candidates;
+        while (!dirty_vertices_.empty()) {
+            std::vector<int32_t> work;
+            work.swap(dirty_vertices_);
+            std::sort(work.begin(), work.end());
+            for (int32_t v : work) vertex_dirty_[v] = 0;
+            for (int32_t i : work) {
+                if (!mesh_.vertex_alive(i)) continue;
+                const double merge_length = 0.5 * criteria_.target(d_[i]);
+                candidates.clear();
+                const int32_t start = mesh_.outgoing(i);
+                int32_t h = start;
+                do {
+                    const double length = distance(mesh_.points[i], mesh_.points[mesh_.to(h)]);
+                    if (length < merge_length) candidates.emplace_back(length, h);
+                    h = mesh_.rotate(h);
+                } while (h != start);
+                std::sort(candidates.begin(), candidates.end());
+                for (const auto& [length, edge] : candidates) {
+                    const Check check =
+                        criteria_.merge(mesh_, d_, params_.conserve_volume ? &drift_ : nullptr, edge);
+                    if (check.verdict != Verdict::accepted) continue;
+                    const int32_t j = mesh_.to(edge);
+                    mesh_.collapse(edge);
+                    mesh_.points[j] += check.shift;
+                    drift_[j] += check.shift;
+                    lost_[j] -= check.volume_change;
+                    max_damage_ = std::max(max_damage_, check.damage);
+                    mark_two_ring(j);
+                    ++merges;
+                    break;
+                }
+            }
+        }
+        return merges;
+    }
+
+    // Fig. 9 with Appendix B, to a fixed point over the dirty faces' edges.
+    int64_t swap_edges()
+    {
+        int64_t swaps = 0;
+        while (!dirty_faces_.empty()) {
+            std::vector<int32_t> work;
+            work.swap(dirty_faces_);
+            std::sort(work.begin(), work.end());
+            for (int32_t f : work) face_dirty_[f] = 0;
+            for (int32_t f : work) {
+                if (!mesh_.face_alive(f)) continue;
+                for (int32_t h = 3 * f; h < 3 * f + 3; ++h) {
+                    const Check check = criteria_.swap(mesh_, d_, h);
+                    if (check.verdict != Verdict::accepted) continue;
+                    const int32_t g = mesh_.twin(h);
+                    const int32_t corners[4] = {mesh_.from(h), mesh_.to(h), mesh_.opposite(h), mesh_.opposite(g)};
+                    mesh_.flip(h);
+                    for (int32_t v : corners) lost_[v] -= 0.25 * check.volume_change;
+                    max_damage_ = std::max(max_damage_, check.damage);
+                    mark_face(HalfedgeMesh::face(h));
+                    mark_face(HalfedgeMesh::face(g));
+                    for (int32_t v : corners) mark_one_ring(v);
+                    ++swaps;
+                    break; // f is another face now, and queued again
+                }
+            }
+        }
+        return swaps;
+    }
+
+    // Swaps (and merges into a node on a patch border, which stays put) cut
+    // a sliver off a convex region or add one to a concave one. Each node
+    // has kept count of the volume removed at it; that amount, spread over
+    // its 1-ring, becomes a move along the node's area normal (the volume
+    // gradient is a third of it), and one common factor, found by Newton's
+    // method, makes the enclosed volume the input's again. Returns the
+    // largest move (mm).
+    double restore_volume()
+    {
+        const int32_t n = mesh_.vertex_capacity();
+        std::vector<Vec3> area(n); // the area vector N_v of each fan
+        for (int32_t f = 0; f < mesh_.face_capacity(); ++f) {
+            if (!mesh_.face_alive(f)) continue;
+            const int32_t a = mesh_.from(3 * f), b = mesh_.from(3 * f + 1), c = mesh_.from(3 * f + 2);
+            const Vec3 half = 0.5 * cross(mesh_.points[b] - mesh_.points[a], mesh_.points[c] - mesh_.points[a]);
+            area[a] += half, area[b] += half, area[c] += half;
+        }
+        // Offset length that restores lost_v at v alone, then its area-weighted
+        // mean over the 1-ring, so no single node carries a bump.
+        std::vector<double> offset(n, 0.0), spread(n, 0.0);
+        for (int32_t v = 0; v < n; ++v)
+            if (mesh_.vertex_alive(v) && norm(area[v]) > 0) offset[v] = 3 * lost_[v] / norm(area[v]);
+        for (int32_t v = 0; v < n; ++v) {
+            if (!mesh_.vertex_alive(v) || mesh_.on_patch_boundary(v)) continue;
+            double sum = norm(area[v]) * offset[v], weight = norm(area[v]);
+            const int32_t start = mesh_.outgoing(v);
+            int32_t h = start;
+            do {
+                const int32_t w = mesh_.to(h);
+                sum += norm(area[w]) * offset[w];
+                weight += norm(area[w]);
+                h = mesh_.rotate(h);
+            } while (h != start);
+            spread[v] = weight > 0 ? sum / weight : 0.0;
+        }
+        std::fill(lost_.begin(), lost_.end(), 0.0);
+
+        std::vector<Vec3> move(n), base(mesh_.points);
+        double slope = 0; // dV/ds at s = 0
+        for (int32_t v = 0; v < n; ++v) {
+            if (spread[v] == 0) continue;
+            move[v] = spread[v] * normalized(area[v]);
+            slope += dot(move[v], area[v]) / 3;
+        }
+        if (slope == 0) return 0;
+        double s = (volume_ - current_volume()) / slope;
+        for (int iteration = 0; iteration < 4; ++iteration) {
+            for (int32_t v = 0; v < n; ++v) mesh_.points[v] = base[v] + s * move[v];
+            const double error = current_volume() - volume_;
+            if (std::abs(error) <= 1e-13 * std::abs(volume_)) break;
+            s -= error / slope;
+        }
+        double largest = 0;
+        for (int32_t v = 0; v < n; ++v) largest = std::max(largest, std::abs(s) * norm(move[v]));
+        return largest;
+    }
+
+    double current_volume() const
+    {
+        double six_volume = 0;
+        for (int32_t f = 0; f < mesh_.face_capacity(); ++f) {
+            if (!mesh_.face_alive(f)) continue;
+            const Vec3 &a = mesh_.points[mesh_.from(3 * f)], &b = mesh_.points[mesh_.from(3 * f + 1)],
+                       &c = mesh_.points[mesh_.from(3 * f + 2)];
+            six_volume += dot(a, cross(b, c));
+        }
+        return six_volume / 6;
+    }
+
+    // Algorithm 2: E = edges longer than the smaller bisection length K/M d
+    // of their ends, longest first; each refines the terminal edge of its
+    // Rivara chain; E is recomputed until it is empty.
+    int64_t bisect_long_edges()
+    {
+        int64_t bisections = 0;
+        std::vector<std::tuple<double, int32_t, int32_t>> E;
+        for (;;) {
+            E.clear();
+            for (int32_t h = 0; h < mesh_.halfedge_capacity(); ++h) {
+                if (!mesh_.face_alive(HalfedgeMesh::face(h)) || h > mesh_.twin(h)) continue;
+                const int32_t a = mesh_.from(h), b = mesh_.to(h);
+                const double length = distance(mesh_.points[a], mesh_.points[b]);
+                if (length > criteria_.target(std::min(d_[a], d_[b]))) E.emplace_back(length, a, b);
+            }
+            if (E.empty()) break;
+            std::sort(E.begin(), E.end(), [](const auto& p, const auto& q) { return p > q; });
+            for (const auto& [length, a, b] : E) {
+                const int32_t h = mesh_.find_halfedge(a, b);
+                if (h < 0) continue; // bisected by an earlier chain this pass
+                const int32_t terminal = rivara_terminal(h);
+                const int32_t p = mesh_.from(terminal), q = mesh_.to(terminal);
+                mesh_.split(terminal, 0.5 * (mesh_.points[p] + mesh_.points[q]));
+                d_.push_back(0.5 * (d_[p] + d_[q]));
+                lost_.push_back(0.0);
+                drift_.push_back(0.5 * (drift_[p] + drift_[q]));
+                ++bisections;
+            }
+        }
+        return bisections;
+    }
+
+    // Edges ordered by length, ties broken by their end ids, so that every
+    // chain strictly climbs and ends.
+    std::tuple<double, int32_t, int32_t> edge_key(int32_t h) const
+    {
+        const int32_t a = mesh_.from(h), b = mesh_.to(h);
+        return {norm2(mesh_.points[a] - mesh_.points[b]), std::min(a, b), std::max(a, b)};
+    }
+
+    int32_t longest_in_face(int32_t h) const
+    {
+        const int32_t first = 3 * HalfedgeMesh::face(h);
+        int32_t best = first;
+        for (int32_t k = first + 1; k < first + 3; ++k)
+            if (edge_key(k) > edge_key(best)) best = k;
+        return best;
+    }
+
+    // The Rivara chain of h: while h is not the longest edge of both its
+    // triangles, move to the longest edge of the triangle where it is not.
+    int32_t rivara_terminal(int32_t h) const
+    {
+        for (;;) {
+            const int32_t here = longest_in_face(h);
+            if (here != h) {
+                h = here;
+                continue;
+            }
+            const int32_t there = longest_in_face(mesh_.twin(h));
+            if (there == mesh_.twin(h)) return h;
+            h = there;
+        }
+    }
+
+    // Algorithm 6's smoothing after each cycle. Patch borders stay put, so
+    // that caps keep their rims.
+    void smooth()
+    {
+        std::vector<int32_t> vertex_of_point;
+        SurfaceMesh surface = mesh_.to_surface(&vertex_of_point);
+        SmoothingConstraint constraint;
+        if (mesh_.has_patches()) {
+            constraint.fixed.resize(vertex_of_point.size());
+            for (size_t p = 0; p < vertex_of_point.size(); ++p)
+                constraint.fixed[p] = mesh_.on_patch_boundary(vertex_of_point[p]);
+        }
+        smooth_volume_conserving(surface, {params_.smoothing_sweeps, params_.smoothing_omega, params_.max_displacement},
+                                 mesh_.has_patches() ? &constraint : nullptr);
+        mesh_.set_positions(surface.points, vertex_of_point);
+    }
+
+    void mark_everything()
+    {
+        vertex_dirty_.assign(mesh_.vertex_capacity(), 0);
+        face_dirty_.assign(mesh_.face_capacity(), 0);
+        dirty_vertices_.clear();
+        dirty_faces_.clear();
+        for (int32_t v = 0; v < mesh_.vertex_capacity(); ++v)
+            if (mesh_.vertex_alive(v)) mark_vertex(v);
+        for (int32_t f = 0; f < mesh_.face_capacity(); ++f)
+            if (mesh_.face_alive(f)) mark_face(f);
+    }
+
+    void mark_vertex(int32_t v)
+    {
+        if (vertex_dirty_[v]) return;
+        vertex_dirty_[v] = 1;
+        dirty_vertices_.push_back(v);
+    }
+
+    void mark_face(int32_t f)
+    {
+        if (face_dirty_[f]) return;
+        face_dirty_[f] = 1;
+        dirty_faces_.push_back(f);
+    }
+
+    // A swap at v changes the merge tests of v and its neighbours (their
+    // fans, link conditions and valences).
+    void mark_one_ring(int32_t v)
+    {
+        mark_vertex(v);
+        const int32_t start = mesh_.outgoing(v);
+        int32_t h = start;
+        do {
+            mark_vertex(mesh_.to(h));
+            h = mesh_.rotate(h);
+        } while (h != start);
+    }
+
+    // A merge into j moves j and changes the fans of j and its neighbours:
+    // every node within two edges may judge its merges differently, and
+    // every edge of j's fan its swap.
+    void mark_two_ring(int32_t j)
+    {
+        const int32_t start = mesh_.outgoing(j);
+        int32_t h = start;
+        do {
+            mark_one_ring(mesh_.to(h));
+            mark_face(HalfedgeMesh::face(h));
+            h = mesh_.rotate(h);
+        } while (h != start);
+    }
+
+    const RemeshParams& params_;
+    HalfedgeMesh mesh_;
+    std::vector<double> d_;
+    std::vector<Vec3> drift_;  // mm per vertex id: the sum of its volume keeping moves
+    std::vector<double> lost_; // mm^3 per vertex id: volume the merges and swaps there removed since the last restore
+    Criteria criteria_;
+    double volume_; // mm^3 enclosed by the input
+    double max_damage_ = 0;
+    std::vector<char> vertex_dirty_, face_dirty_;
+    std::vector<int32_t> dirty_vertices_, dirty_faces_;
+};
+
+} // namespace
+
+RemeshResult remesh_to_feature_size(const SurfaceMesh& surface, const std::vector<double>& d,
+                                    const RemeshParams& params)
+{
+    validate(surface, d, params);
+    Remesher remesher(surface, d, params);
+    return remesher.run();
+}
+
+std::vector<double> edge_length_ratio(const SurfaceMesh& surface, const std::vector<double>& d, double K, double M)
+{
+    if (d.size() != surface.points.size())
+        throw InputError("edge_length_ratio: d has " + std::to_string(d.size()) + " values for " +
+                             std::to_string(surface.points.size()) + " points",
+                         "pass one d per point");
+    std::vector<double> sum(surface.points.size(), 0.0);
+    std::vector<int32_t> count(surface.points.size(), 0);
+    for (const auto& [a, b] : unique_edges(surface)) {
+        const double ratio = distance(surface.points[a], surface.points[b]) / (K / M * 0.5 * (d[a] + d[b]));
+        sum[a] += ratio, sum[b] += ratio;
+        ++count[a], ++count[b];
+    }
+    for (size_t i = 0; i < sum.size(); ++i) sum[i] = count[i] > 0 ? sum[i] / count[i] : 0.0;
+    return sum;
+}
+
+} // namespace scalemesh

@@ -1,0 +1,50 @@
+#pragma once
+// Algorithm 5 on CGAL's Delaunay_triangulation_3, and the exterior removal:
+// the one translation unit of the volume stage that includes CGAL.
+
+#include "core/surface_mesh.h"
+#include "core/tet_mesh.h"
+#include "volume/offset_points.h"
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace scalemesh {
+
+struct InsertionParams {
+    int passes = 3;                    // passes over the not yet inserted points, >= 1
+    double min_volume_fraction = 1e-3; // (i): reject when a new tet is below this fraction of spacing^3
+    bool protect_surface = true;       // reject a point whose cavity holds a surface triangle facet
+    std::vector<std::array<int32_t, 2>> protected_edges; // surface-point pairs no new tet may contain
+                                                         // (the diagonals of quads that failed a repair)
+};
+
+struct InsertionResult {
+    std::vector<Vec3> points;       // surface points 0..n-1, then the interior points used by `tets`
+    std::vector<int32_t> source;    // per point: the surface node (< n) or n + index into the offset points
+    std::vector<Tet> tets;          // the cells inside the surface, positively oriented
+    std::vector<int32_t> missing_triangles; // surface triangles that are not facets, or whose sides clash
+    std::vector<std::array<int32_t, 4>> quads; // surface quads (a, b, c, d), triangles (a, b, c) and (a, c, d),
+                                               // meshed through their stand-ins (a, b, d) and (b, c, d)
+    int64_t inserted = 0, rejected_small = 0, rejected_filler = 0, rejected_surface = 0, rejected_other = 0;
+    int64_t unused = 0; // inserted interior points with no inside cell
+    double seconds_insertion = 0, seconds_classify = 0;
+};
+
+// Inserts the surface points (spatially sorted), then the offset points layer
+// by layer with the conditions of Algorithm 5 (see the .cpp), `passes` times,
+// and keeps the finite cells on the inner side of the surface. The sides are
+// found exactly, without coordinates: every surface triangle that is a facet
+// separates an inner from an outer cell (by the exact orientation of its
+// outward normal against the opposite vertex), and a flood fill through the
+// other facets carries the side to every cell; the infinite cells are
+// outside. Quads of two surface triangles that the Delaunay triangulation
+// splits along the other diagonal are listed in `quads`; `tets` are then
+// bounded by their stand-in triangles (a, b, d), (b, c, d), to be repaired
+// by repair_surface_quads. When another surface triangle is missing the
+// result lists it and `tets` is not meaningful. Throws InputError when two surface points coincide.
+InsertionResult insert_and_classify(const SurfaceMesh& surface, const std::vector<OffsetPoint>& points,
+                                    const InsertionParams& params);
+
+} // namespace scalemesh

@@ -1,0 +1,51 @@
+#pragma once
+// Tet mesh improvement, paper section 2.4: flips with the volume criterion,
+// then sliver removal (own design, in the spirit of the paper's tet crushing).
+
+#include "core/tet_mesh.h"
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace scalemesh {
+
+// Re-triangulates the tets at edge (b, d) of each quad so that the quad's
+// own triangles (a, b, c), (a, c, d) bound the mesh instead of (a, b, d),
+// (b, c, d): the chain of tets b d r_i r_{i+1} from a to c becomes the cones
+// from b and from d over the fan a r_i r_{i+1}. Returns the quads where that
+// is impossible (a new tet would not be positive), leaving them as they were.
+std::vector<int32_t> repair_surface_quads(TetMesh& mesh, const std::vector<std::array<int32_t, 4>>& quads);
+
+struct FlipCounts {
+    int64_t flips_32 = 0, flips_23 = 0, flips_44 = 0;
+};
+
+// Section 2.4: a 3-2 flip of an interior edge with three tets is made when
+// the smaller of the two new tets has more than 3 times the volume of the
+// smallest of the three old ones; the 2-3 flips of interior faces and the
+// 4-4 flips of interior edges with four tets that meet the same criterion
+// are made too. Sweeps until nothing flips, at most `sweeps` times.
+// Surface faces (faces with one tet) are never touched, no point moves, the
+// boundary faces stay the same, every new tet is positively oriented, and
+// the union of the tets is unchanged (so is the total volume, to round-off).
+// mesh.tet_fields are cleared (they no longer match the tets).
+FlipCounts flip_volume_criterion(TetMesh& mesh, int sweeps);
+
+struct SliverCounts {
+    int64_t flips = 0; // quality-improving flips
+    int64_t moves = 0; // accepted interior point moves
+};
+
+// Sliver removal for tets with aspect ratio below `threshold`: first flips
+// (2-3, 3-2, 4-4) that raise the smallest aspect ratio of the tets they
+// replace, then small moves of interior points (ids >= surface_points) of
+// such tets, each accepted only when it raises the smallest aspect ratio of
+// the point's incident tets and keeps all of them positively oriented
+// (line search along the gradient of the worst incident tet's aspect ratio,
+// and the star's centroid). Surface points never move, so the boundary is
+// bit-identical. At most `sweeps` rounds. Tets made only of surface points
+// with two surface faces can only be changed by flips and may remain.
+SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double threshold, int sweeps);
+
+} // namespace scalemesh

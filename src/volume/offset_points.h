@@ -1,0 +1,56 @@
+#pragma once
+// Interior points of the layered volume mesh: paper Algorithm 4 (offset
+// points along the inward synthetic normal) and the interior-point filter of
+// section 4.
+
+#include "core/surface_mesh.h"
+#include "sizing/feature_size.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace scalemesh {
+
+struct OffsetParams {
+    double M = 7;         // element layers across a cross-section, >= 1 (Algorithm 4)
+    double growth = 1.0;  // ratio lambda_{m+1} / lambda_m of the layermaking spacing, >= 1;
+                          // 1 = uniform lambda_m = 1/M (the paper's default)
+    double L_max = 0;     // mm, > 0: filler spacing is min(D, L_max) / M
+    double filter_fraction = 0.2; // interior-point filter radius, fraction of min(d_a, d_b) / M, >= 0
+};
+
+// One interior point x_i^m = x_i - dist n_i (n_i the outward unit normal).
+struct OffsetPoint {
+    Vec3 position;      // mm
+    int32_t generator;  // surface node i
+    int32_t layer;      // m >= 1
+    bool filler;        // m > floor(M/2) (or past the layermaking range): a filler point
+    double dist;        // mm from the generator along its inward normal
+    double spacing;     // mm, the spacing lambda_m d_i or min(D_i, L_max) / M that placed it
+};
+
+// Layermaking spacings lambda_m, m = 1..floor(M/2), as fractions of d: all
+// 1/M when growth == 1; otherwise geometric, lambda_{m+1} = growth lambda_m,
+// scaled so that they sum to floor(M/2) / M (1/2 for even M, as the paper's
+// uniform case reaches for odd M). Throws InputError when M < 1 or growth < 1.
+std::vector<double> layer_fractions(double M, double growth);
+
+// Algorithm 4 for every surface node i: layermaking points at cumulative
+// distances sum_{k<=m} lambda_k d_i for m = 1..floor(M/2), then filler points
+// every min(D_i, L_max) / M, all while dist <= D_i / 2. A node whose inward
+// check failed (sizing.inward_ok[i] == 0) or with d_i <= 0 gets no points:
+// its normal cannot be trusted to point into the volume. Points are ordered
+// by node, then by layer. Throws InputError when the sizing fields do not
+// match the surface or a parameter is out of range.
+std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const FeatureSize& sizing,
+                                       const OffsetParams& params);
+
+// Section 4's interior-point filter: of two points from different generators
+// closer than filter_fraction * min(d_a, d_b) / M, the one farther from its
+// generator is dropped (ties: the later one). Greedy in order of distance to
+// the generator, with a uniform grid hash (expected linear time). Returns the
+// kept points in their input order.
+std::vector<OffsetPoint> filter_interior_points(const std::vector<OffsetPoint>& points, const FeatureSize& sizing,
+                                                const OffsetParams& params);
+
+} // namespace scalemesh

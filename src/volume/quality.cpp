@@ -1,0 +1,68 @@
+#include "volume/quality.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace scalemesh {
+
+double tet_aspect_ratio(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d)
+{
+    const double volume = tet_volume6(a, b, c, d) / 6.0;
+    const double area = 0.5 * (norm(cross(b - a, c - a)) + norm(cross(b - a, d - a)) +
+                               norm(cross(c - a, d - a)) + norm(cross(c - b, d - b)));
+    const double l2 = std::max({norm2(b - a), norm2(c - a), norm2(d - a), norm2(c - b), norm2(d - b), norm2(d - c)});
+    if (!(area > 0) || !(l2 > 0)) return 0;
+    const double r_in = 3.0 * volume / area;
+    return 2.0 * std::sqrt(6.0) * r_in / std::sqrt(l2);
+}
+
+double tet_min_dihedral_deg(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d)
+{
+    // The dihedral angle at edge (p, q) is the angle between the two faces
+    // through it: pi minus the angle of their outward normals.
+    const Vec3 v[4] = {a, b, c, d};
+    double smallest = 180.0;
+    for (int i = 0; i < 4; ++i)
+        for (int j = i + 1; j < 4; ++j) {
+            int others[2], o = 0;
+            for (int t = 0; t < 4; ++t)
+                if (t != i && t != j) others[o++] = t;
+            const int k = others[0], l = others[1];
+            const Vec3 e = normalized(v[j] - v[i]);
+            Vec3 u = v[k] - v[i], w = v[l] - v[i];
+            u = u - dot(u, e) * e;
+            w = w - dot(w, e) * e;
+            const double nu = norm(u), nw = norm(w);
+            if (!(nu > 0) || !(nw > 0)) return 0;
+            const double cosine = std::clamp(dot(u, w) / (nu * nw), -1.0, 1.0);
+            smallest = std::min(smallest, std::acos(cosine) * 180.0 / M_PI);
+        }
+    return tet_volume6(a, b, c, d) > 0 ? smallest : 0.0;
+}
+
+QualityReport quality_report(const TetMesh& mesh)
+{
+    QualityReport r;
+    r.tets = static_cast<int64_t>(mesh.tets.size());
+    if (mesh.tets.empty()) return r;
+    r.min_aspect_ratio = 1e300;
+    r.min_dihedral_deg = 1e300;
+    double sum = 0;
+    int64_t low = 0;
+    for (const Tet& t : mesh.tets) {
+        const Vec3 &a = mesh.points[t[0]], &b = mesh.points[t[1]], &c = mesh.points[t[2]], &d = mesh.points[t[3]];
+        const double q = tet_aspect_ratio(a, b, c, d);
+        r.min_aspect_ratio = std::min(r.min_aspect_ratio, q);
+        r.min_dihedral_deg = std::min(r.min_dihedral_deg, tet_min_dihedral_deg(a, b, c, d));
+        sum += q;
+        low += q < 0.1;
+        r.below_0_02 += q < 0.02;
+        const int bin = std::clamp(static_cast<int>(std::floor(q * 20.0)), 0, 19);
+        ++r.histogram[bin];
+    }
+    r.mean_aspect_ratio = sum / double(r.tets);
+    r.fraction_below_0_1 = double(low) / double(r.tets);
+    return r;
+}
+
+} // namespace scalemesh

@@ -1,0 +1,250 @@
+#include "volume/volume_mesh.h"
+
+#include "core/adjacency.h"
+#include "volume/delaunay_insertion.h"
+#include "volume/improve.h"
+#include "volume/offset_points.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+#include <sstream>
+#include <tuple>
+
+namespace scalemesh {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+void check_params(const VolumeParams& p)
+{
+    if (!(p.K > 0) || !std::isfinite(p.K)) throw InputError("volume: K must be a positive number", "use K = 4.2");
+    if (!(p.L_max > 0) || !std::isfinite(p.L_max))
+        throw InputError("volume: L_max must be a positive finite length in mm", "pass the sizing stage's L_max");
+    if (p.insertion_passes < 1) throw InputError("volume: insertion_passes must be >= 1", "use 3");
+    if (!(p.min_volume_fraction >= 0) || !(p.filter_fraction >= 0))
+        throw InputError("volume: min_volume_fraction and filter_fraction must be >= 0", "use 1e-3 and 0.2");
+    if (p.flip_sweeps < 0 || p.sliver_sweeps < 0) throw InputError("volume: sweep counts must be >= 0", "use 10 and 20");
+}
+
+// Names up to `limit` ids for an error message.
+std::string list_ids(const std::vector<int32_t>& ids, size_t limit = 10)
+{
+    std::ostringstream s;
+    for (size_t i = 0; i < ids.size() && i < limit; ++i) s << (i ? ", " : "") << ids[i];
+    if (ids.size() > limit) s << ", ...";
+    return s.str();
+}
+
+std::vector<int32_t> nodes_of(const SurfaceMesh& surface, const std::vector<int32_t>& triangles)
+{
+    std::vector<int32_t> nodes;
+    for (int32_t t : triangles)
+        for (int32_t v : surface.triangles[t]) nodes.push_back(v);
+    std::sort(nodes.begin(), nodes.end());
+    nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+    return nodes;
+}
+
+int32_t find_root(std::vector<int32_t>& parent, int32_t x)
+{
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+}
+
+} // namespace
+
+std::vector<int32_t> topology_check_failures(const TetMesh& mesh, int32_t surface_points)
+{
+    // Two tets at node v are face-adjacent around v when they share a face
+    // through v, i.e. v and two more vertices: key (v, a, b) per tet.
+    struct Entry {
+        int32_t v, a, b, tet;
+    };
+    std::vector<Entry> entries;
+    std::vector<int32_t> tets_at(surface_points, 0);
+    for (size_t t = 0; t < mesh.tets.size(); ++t) {
+        const Tet& tet = mesh.tets[t];
+        for (int i = 0; i < 4; ++i) {
+            const int32_t v = tet[i];
+            if (v >= surface_points) continue;
+            ++tets_at[v];
+            for (int j = 0; j < 4; ++j)
+                for (int k = j + 1; k < 4; ++k)
+                    if (j != i && k != i)
+                        entries.push_back({v, std::min(tet[j], tet[k]), std::max(tet[j], tet[k]), int32_t(t)});
+        }
+    }
+    std::sort(entries.begin(), entries.end(), [](const Entry& x, const Entry& y) {
+        return std::tie(x.v, x.a, x.b) < std::tie(y.v, y.a, y.b);
+    });
+    std::vector<int32_t> parent(mesh.tets.size());
+    std::iota(parent.begin(), parent.end(), 0);
+    for (size_t i = 1; i < entries.size(); ++i)
+        if (entries[i].v == entries[i - 1].v && entries[i].a == entries[i - 1].a && entries[i].b == entries[i - 1].b)
+            parent[find_root(parent, entries[i].tet)] = find_root(parent, entries[i - 1].tet);
+
+    // Components per node: distinct roots among its tets.
+    std::vector<int32_t> first_root(surface_points, -1);
+    std::vector<char> failed(surface_points, 0);
+    for (size_t t = 0; t < mesh.tets.size(); ++t)
+        for (int32_t v : mesh.tets[t]) {
+            if (v >= surface_points) continue;
+            const int32_t r = find_root(parent, int32_t(t));
+            if (first_root[v] == -1) first_root[v] = r;
+            else if (first_root[v] != r) failed[v] = 1;
+        }
+    std::vector<int32_t> failures;
+    for (int32_t v = 0; v < surface_points; ++v)
+        if (failed[v] || tets_at[v] == 0) failures.push_back(v);
+    return failures;
+}
+
+VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& sizing, const VolumeParams& params)
+{
+    const auto start = Clock::now();
+    check_params(params);
+    require_closed_manifold(surface, "volume: the surface to mesh");
+    const int32_t n = static_cast<int32_t>(surface.points.size());
+    VolumeResult result;
+
+    auto t0 = Clock::now();
+    const OffsetParams offset{params.M, params.growth, params.L_max, params.filter_fraction};
+    const std::vector<OffsetPoint> raw = offset_points(surface, sizing, offset);
+    const std::vector<OffsetPoint> points = filter_interior_points(raw, sizing, offset);
+    result.offset_points = static_cast<int64_t>(raw.size());
+    result.filtered_points = static_cast<int64_t>(raw.size() - points.size());
+    result.seconds_points = seconds_since(t0);
+
+    // A quad whose re-triangulation fails gets a bounded retry: the whole
+    // insertion runs again with its diagonal protected, so no interior
+    // point joins it and the tets to re-triangulate are few and simple.
+    InsertionParams insertion{params.insertion_passes, params.min_volume_fraction, params.protect_surface, {}};
+    InsertionResult ins;
+    std::vector<int32_t> failed_quads;
+    TetMesh& mesh = result.mesh;
+    for (int attempt = 0;; ++attempt) {
+        ins = insert_and_classify(surface, points, insertion);
+        if (!ins.missing_triangles.empty()) break;
+        mesh = TetMesh{};
+        mesh.points = ins.points;
+        mesh.tets = ins.tets;
+        failed_quads = repair_surface_quads(mesh, ins.quads);
+        if (failed_quads.empty() || attempt == 2) break;
+        for (int32_t q : failed_quads) insertion.protected_edges.push_back({ins.quads[q][1], ins.quads[q][3]});
+        result.insertion_retries = attempt + 1;
+    }
+    result.seconds_insertion = ins.seconds_insertion;
+    result.seconds_classify = ins.seconds_classify;
+    result.inserted_points = ins.inserted;
+    result.rejected_small = ins.rejected_small;
+    result.rejected_filler = ins.rejected_filler;
+    result.rejected_surface = ins.rejected_surface;
+    result.rejected_other = ins.rejected_other;
+    result.unused_points = ins.unused;
+    if (!ins.missing_triangles.empty()) {
+        const std::vector<int32_t> nodes = nodes_of(surface, ins.missing_triangles);
+        throw VolumeConformityError(std::to_string(ins.missing_triangles.size()) +
+                                        " surface triangles are not faces of the Delaunay triangulation of the "
+                                        "surface points (triangles " +
+                                        list_ids(ins.missing_triangles) + "; nodes " + list_ids(nodes) +
+                                        "). Refine the surface there (smaller d) and re-run",
+                                    ins.missing_triangles, nodes);
+    }
+    mesh.boundary_faces = surface.triangles;
+    mesh.boundary_patch = surface.triangle_patch;
+    result.surface_quads = static_cast<int64_t>(ins.quads.size());
+    if (!failed_quads.empty()) {
+        std::vector<int32_t> nodes;
+        for (int32_t q : failed_quads) nodes.insert(nodes.end(), ins.quads[q].begin(), ins.quads[q].end());
+        std::sort(nodes.begin(), nodes.end());
+        nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+        throw VolumeConformityError(std::to_string(failed_quads.size()) +
+                                        " surface quads split along the other diagonal could not be re-triangulated "
+                                        "(nodes " + list_ids(nodes) + "). Refine the surface there and re-run",
+                                    {}, nodes);
+    }
+    result.point_generator.resize(mesh.points.size());
+    result.point_layer.resize(mesh.points.size());
+    result.point_filler.resize(mesh.points.size());
+    for (size_t p = 0; p < mesh.points.size(); ++p) {
+        const int32_t s = ins.source[p];
+        if (s < n) {
+            result.point_generator[p] = s, result.point_layer[p] = 0, result.point_filler[p] = 0;
+        } else {
+            const OffsetPoint& op = points[s - n];
+            result.point_generator[p] = op.generator, result.point_layer[p] = op.layer;
+            result.point_filler[p] = op.filler ? 1 : 0;
+        }
+    }
+
+    // Realised layers and first-layer anisotropy.
+    const int layermaking = static_cast<int>(std::floor(params.M / 2));
+    std::vector<std::vector<char>> present(n);
+    std::vector<double> first_thickness(n, std::numeric_limits<double>::quiet_NaN());
+    for (size_t p = n; p < mesh.points.size(); ++p) {
+        const int32_t g = result.point_generator[p], m = result.point_layer[p];
+        if (result.point_filler[p] || m > layermaking) continue;
+        if (present[g].empty()) present[g].assign(layermaking + 1, 0);
+        present[g][m] = 1;
+        if (m == 1) first_thickness[g] = distance(mesh.points[p], surface.points[g]);
+    }
+    result.realised_layers.assign(n, 0);
+    for (int32_t i = 0; i < n; ++i) {
+        int count = 0;
+        while (!present[i].empty() && count < layermaking && present[i][count + 1]) ++count;
+        result.realised_layers[i] = count;
+    }
+    const VertexTable neighbours = vertex_neighbours(surface);
+    result.near_wall_anisotropy.assign(n, std::numeric_limits<double>::quiet_NaN());
+    std::vector<double> finite;
+    for (int32_t i = 0; i < n; ++i) {
+        if (!(first_thickness[i] > 0) || neighbours.size(i) == 0) continue;
+        double length = 0;
+        for (const int32_t* j = neighbours.begin(i); j != neighbours.end(i); ++j)
+            length += distance(surface.points[i], surface.points[*j]);
+        result.near_wall_anisotropy[i] = length / neighbours.size(i) / first_thickness[i];
+        finite.push_back(result.near_wall_anisotropy[i]);
+    }
+    if (!finite.empty()) {
+        std::nth_element(finite.begin(), finite.begin() + finite.size() / 2, finite.end());
+        result.first_layer_anisotropy_median = finite[finite.size() / 2];
+    }
+
+    result.before_flips = quality_report(mesh);
+    result.after_flips = result.before_flips;
+    result.after_slivers = result.before_flips;
+    if (params.improve) {
+        t0 = Clock::now();
+        const FlipCounts flips = flip_volume_criterion(mesh, params.flip_sweeps);
+        result.flips_32 = flips.flips_32, result.flips_23 = flips.flips_23, result.flips_44 = flips.flips_44;
+        result.seconds_flips = seconds_since(t0);
+        result.after_flips = quality_report(mesh);
+        t0 = Clock::now();
+        const SliverCounts slivers = remove_slivers(mesh, n, params.sliver_aspect_ratio, params.sliver_sweeps);
+        result.sliver_flips = slivers.flips, result.sliver_moves = slivers.moves;
+        result.seconds_slivers = seconds_since(t0);
+        result.after_slivers = quality_report(mesh);
+    }
+
+    const TetMeshFacts facts = tet_mesh_facts(mesh);
+    if (facts.nonpositive_tets != 0 || !facts.boundary_matches)
+        throw StageError("volume", std::to_string(facts.nonpositive_tets) +
+                                       " tets are not positive or the mesh boundary is not the surface (" +
+                                       std::to_string(facts.boundary_faces) + " boundary faces for " +
+                                       std::to_string(surface.triangles.size()) + " surface triangles)");
+    if (params.check_topology) {
+        const std::vector<int32_t> failures = topology_check_failures(mesh, n);
+        if (!failures.empty())
+            throw VolumeConformityError(std::to_string(failures.size()) +
+                                            " surface nodes fail the topology check of section 2.3 (nodes " +
+                                            list_ids(failures) + "). Refine the surface there and re-run",
+                                        {}, failures);
+    }
+    result.seconds_total = seconds_since(start);
+    return result;
+}
+
+} // namespace scalemesh

@@ -1,0 +1,108 @@
+#pragma once
+// The layered volume mesh of a closed surface: paper sections 2.3 to 2.5,
+// Algorithms 4, 5 and 6 (last three lines), section 4's interior-point filter,
+// and the quality statistics of section 3 (Fig. 19).
+//
+//   offset points (Algorithm 4) -> interior-point filter (section 4)
+//   -> conditional Delaunay insertion, surface first, then layer by layer
+//      (Algorithm 5) -> exterior removal -> conformity and topology checks
+//   -> 3-2 / 2-3 / 4-4 flips with the volume criterion (section 2.4)
+//   -> sliver removal (own design, see improve.h)
+
+#include "core/errors.h"
+#include "core/surface_mesh.h"
+#include "core/tet_mesh.h"
+#include "sizing/feature_size.h"
+#include "volume/quality.h"
+
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace scalemesh {
+
+struct VolumeParams {
+    double K = 4.2;      // anisotropy of the layer elements (for the report only; the surface sets it)
+    double M = 7;        // element layers across a cross-section, >= 1
+    double growth = 1.0; // layer growth ratio lambda_{m+1} / lambda_m, >= 1; 1 = uniform (see layer_fractions)
+    double L_max = std::numeric_limits<double>::quiet_NaN(); // mm, required: filler spacing min(D, L_max) / M
+    double filter_fraction = 0.2;      // interior-point filter radius, fraction of min(d_a, d_b) / M
+    double min_volume_fraction = 1e-3; // Algorithm 5 (i): a point is not inserted when one of its new tets
+                                       // has volume below this fraction of s^3, s = the point's spacing
+                                       // (lambda_m d or min(D, L_max) / M, mm)
+    bool protect_surface = true; // also reject a point whose cavity would remove a surface triangle
+                                 // that is already a facet (keeps the surface conforming; see .cpp)
+    int insertion_passes = 3;    // passes of Algorithm 5 over the not yet inserted points, >= 1
+    bool improve = true;         // run flips and sliver removal (section 2.4)
+    int flip_sweeps = 10;        // at most this many sweeps of volume-criterion flips, >= 0
+    int sliver_sweeps = 20;      // at most this many sweeps of sliver removal, >= 0
+    double sliver_aspect_ratio = 0.15; // sliver removal works on tets with aspect ratio below this
+    bool check_topology = true;  // section 2.3 check of every surface node (linear time)
+};
+
+struct VolumeResult {
+    TetMesh mesh; // points 0..n-1 are the surface points, boundary_faces the surface triangles
+    QualityReport before_flips, after_flips, after_slivers;
+    std::vector<int32_t> realised_layers; // per surface node: consecutive layermaking points in the mesh
+    std::vector<int32_t> point_generator; // per mesh point: generating surface node (itself for surface points)
+    std::vector<int32_t> point_layer;     // per mesh point: m (0 on the surface)
+    std::vector<char> point_filler;       // per mesh point: 1 for filler points
+    double first_layer_anisotropy_median = 0; // median over nodes with a first layer point
+    std::vector<double> near_wall_anisotropy; // per surface node: mean incident surface edge length /
+                                              // first-layer thickness; NaN without a first layer point
+    int64_t offset_points = 0;   // points made by Algorithm 4
+    int64_t filtered_points = 0; // removed by the interior-point filter
+    int64_t inserted_points = 0; // interior points in the triangulation after insertion
+    int64_t rejected_small = 0;  // final rejections for (i), tiny tets
+    int64_t rejected_filler = 0; // final rejections for (ii), filler to surface point
+    int64_t rejected_surface = 0; // final rejections for destroying a surface facet
+    int64_t rejected_other = 0;  // duplicates or outside the convex hull of the surface
+    int64_t unused_points = 0;
+    int64_t insertion_retries = 0; // re-runs of the insertion with failed quad diagonals protected
+    int64_t surface_quads = 0;   // surface quads split the other way by Delaunay, re-triangulated   // inserted interior points outside the surface (no kept tet)
+    int64_t flips_32 = 0, flips_23 = 0, flips_44 = 0;
+    int64_t sliver_flips = 0, sliver_moves = 0;
+    double seconds_points = 0, seconds_insertion = 0, seconds_classify = 0, seconds_flips = 0,
+           seconds_slivers = 0, seconds_total = 0;
+};
+
+// Thrown when the mesh cannot conform to the surface: some surface triangles
+// are not faces of the Delaunay triangulation of the surface points (no
+// interior point can bring them back), or the section 2.3 topology check
+// fails. failing_nodes lists the surface nodes to refine (reduce d there and
+// remesh), the recovery of paper section 2.3 that the caller performs.
+class VolumeConformityError : public StageError {
+public:
+    VolumeConformityError(const std::string& what, std::vector<int32_t> triangles, std::vector<int32_t> nodes)
+        : StageError("volume", what), failing_triangles(std::move(triangles)), failing_nodes(std::move(nodes))
+    {
+    }
+    std::vector<int32_t> failing_triangles;
+    std::vector<int32_t> failing_nodes;
+};
+
+// Builds the layered tet mesh inside `surface` (closed, oriented 2-manifold,
+// outward normals, possibly several components and cavities) with the sizing
+// from compute_feature_size on the same surface.
+//
+// Guarantees on return: mesh.points[0..n) are surface.points unchanged;
+// mesh.boundary_faces == surface.triangles (same order, same orientation),
+// boundary_patch == surface.triangle_patch; every tet is positively oriented;
+// the tets fill exactly the region the surface encloses (tet_mesh_facts gives
+// boundary_matches and the enclosed volume to round-off); each surface node's
+// incident tets are one face-connected component (check_topology). Interior
+// points are never on the surface; improvement moves interior points only.
+//
+// Throws InputError when the surface is not a closed oriented 2-manifold, the
+// sizing does not match it, or a parameter is out of range; throws
+// VolumeConformityError (a StageError) naming the surface triangles and nodes
+// where conformity or the topology check fails.
+VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& sizing, const VolumeParams& params);
+
+// Section 2.3 topology check: surface nodes (ids < surface_points) whose
+// incident tets do not form one face-connected component, or that have no
+// tet at all. Linear in the mesh size.
+std::vector<int32_t> topology_check_failures(const TetMesh& mesh, int32_t surface_points);
+
+} // namespace scalemesh

@@ -1,0 +1,381 @@
+// Surface remeshing to the feature size (paper section 2.2, Algorithms 2, 3
+// and 6, Appendices A and B) on smoothed marching cubes surfaces of every
+// phantom and on a real aorta surface.
+
+#include "core/adjacency.h"
+#include "core/errors.h"
+#include "core/surface_mesh.h"
+#include "importers/stl_importer.h"
+#include "isosurface/marching_cubes.h"
+#include "phantom/phantom.h"
+#include "remeshing/criteria.h"
+#include "remeshing/remesh.h"
+#include "sizing/feature_size.h"
+#include "smoothing/volume_conserving_smoothing.h"
+
+#include <CGAL/AABB_traits.h>
+#include <CGAL/AABB_tree.h>
+#include <CGAL/AABB_triangle_primitive.h>
+#include <CGAL/Simple_cartesian.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <tuple>
+
+namespace scalemesh {
+namespace {
+
+constexpr double kK = 4.2, kM = 7;
+
+// Distance from points to a triangle surface through CGAL's AABB tree.
+class DistanceTo {
+public:
+    explicit DistanceTo(const SurfaceMesh& mesh)
+    {
+        for (const Triangle& t : mesh.triangles)
+            triangles_.emplace_back(point(mesh.points[t[0]]), point(mesh.points[t[1]]), point(mesh.points[t[2]]));
+        tree_.insert(triangles_.begin(), triangles_.end());
+        tree_.accelerate_distance_queries();
+    }
+    double operator()(const Vec3& p) const { return std::sqrt(tree_.squared_distance(point(p))); }
+
+private:
+    using Kernel = CGAL::Simple_cartesian<double>;
+    using Iterator = std::vector<Kernel::Triangle_3>::const_iterator;
+    using Tree = CGAL::AABB_tree<CGAL::AABB_traits<Kernel, CGAL::AABB_triangle_primitive<Kernel, Iterator>>>;
+    static Kernel::Point_3 point(const Vec3& p) { return {p.x, p.y, p.z}; }
+    std::vector<Kernel::Triangle_3> triangles_;
+    Tree tree_;
+};
+
+// Largest distance from the vertices, edge midpoints and centroids of `from`
+// to the surface `to`.
+double one_sided_distance(const SurfaceMesh& from, const SurfaceMesh& to)
+{
+    const DistanceTo distance_to(to);
+    double largest = 0;
+    for (const Vec3& p : from.points) largest = std::max(largest, distance_to(p));
+    for (const Triangle& t : from.triangles) {
+        const Vec3 &a = from.points[t[0]], &b = from.points[t[1]], &c = from.points[t[2]];
+        for (const Vec3& p : {(a + b + c) / 3.0, 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + a)})
+            largest = std::max(largest, distance_to(p));
+    }
+    return largest;
+}
+
+double hausdorff(const SurfaceMesh& a, const SurfaceMesh& b)
+{
+    return std::max(one_sided_distance(a, b), one_sided_distance(b, a));
+}
+
+double min_angle_degrees(const SurfaceMesh& mesh, const Triangle& t)
+{
+    double smallest = 180;
+    for (int k = 0; k < 3; ++k) {
+        const Vec3 u = mesh.points[t[(k + 1) % 3]] - mesh.points[t[k]];
+        const Vec3 v = mesh.points[t[(k + 2) % 3]] - mesh.points[t[k]];
+        smallest = std::min(smallest, std::atan2(norm(cross(u, v)), dot(u, v)) * 180 / std::numbers::pi);
+    }
+    return smallest;
+}
+
+struct Figures {
+    double ratio_in_band = 0;   // fraction of edges with length / (K/M d) in [0.45, 1.1], stable d
+    double ratio_in_band_target = 0; // the same with the input d carried along
+    double ratio_at_most = 0;   // fraction of edges with length / (K/M d) <= 1.1, stable d
+    double angle_above_15 = 0;  // fraction of triangles with min angle > 15 degrees
+    double hausdorff = 0;       // mm
+    double bound = 0;           // mm, K/(30M) d_max + one voxel
+    double volume_change = 0;   // relative
+};
+
+// Fractions of edges whose length / (K/M d) is in [0.45, 1.1] and <= 1.1,
+// d the mean of the edge's two ends.
+std::pair<double, double> edge_ratio_fractions(const SurfaceMesh& mesh, const std::vector<double>& d)
+{
+    const auto edges = unique_edges(mesh);
+    size_t in = 0, below = 0;
+    for (const auto& [a, b] : edges) {
+        const double ratio = distance(mesh.points[a], mesh.points[b]) / (kK / kM * 0.5 * (d[a] + d[b]));
+        in += ratio >= 0.45 && ratio <= 1.1;
+        below += ratio <= 1.1;
+    }
+    return {double(in) / double(edges.size()), double(below) / double(edges.size())};
+}
+
+struct Case {
+    SurfaceMesh input;
+    FeatureSize sizing;
+    RemeshParams params;
+    double voxel = 0; // mm
+};
+
+// The Algorithm 6 surface front end on a phantom: marching cubes, 10 sweeps
+// of smoothing with omega 1 (half a voxel of reach), feature size. The
+// remeshing's own smoothing may move a node a third of a voxel per cycle.
+Case phantom_case(const std::string& name, double h, double L_min = 0.25, double L_max = 20)
+{
+    const auto shape = make_shape(name, h);
+    Case c;
+    c.voxel = h;
+    c.input = marching_cubes(*voxelize(*shape, {.voxel_size = h}));
+    smooth_volume_conserving(c.input, {10, 1.0, 0.5 * h});
+    c.params.sizing.L_min = L_min;
+    c.params.sizing.L_max = L_max;
+    c.params.max_displacement = h / 3;
+    c.sizing = compute_feature_size(c.input, c.params.sizing);
+    return c;
+}
+
+// Topology always; the figures are returned for the caller to bound.
+Figures measure(const Case& c, const RemeshResult& r, const std::string& label)
+{
+    const SurfaceFacts before = surface_facts(c.input);
+    const SurfaceFacts after = surface_facts(r.surface);
+    EXPECT_TRUE(after.closed_manifold()) << label;
+    EXPECT_EQ(after.euler_characteristic, before.euler_characteristic) << label;
+    EXPECT_EQ(after.components, before.components) << label;
+    EXPECT_GT(after.signed_volume, 0) << label;
+
+    Figures f;
+    std::tie(f.ratio_in_band, f.ratio_at_most) = edge_ratio_fractions(r.surface, r.sizing.d);
+    f.ratio_in_band_target = edge_ratio_fractions(r.surface, r.target_d).first;
+    size_t good = 0;
+    for (const Triangle& t : r.surface.triangles) good += min_angle_degrees(r.surface, t) > 15;
+    f.angle_above_15 = double(good) / double(r.surface.triangles.size());
+    f.hausdorff = hausdorff(c.input, r.surface);
+    f.volume_change = after.signed_volume / before.signed_volume - 1;
+    const double d_max = *std::max_element(c.sizing.d.begin(), c.sizing.d.end());
+    f.bound = kK / (30 * kM) * d_max + c.voxel;
+    double seconds = 0;
+    for (const RemeshCycle& cycle : r.cycles) seconds += cycle.seconds;
+    std::printf("%-12s triangles %6lld -> %5lld  edges in [0.45, 1.1]: %.3f (carried d %.3f), <= 1.1: %.3f  "
+                "angles > 15: %.4f  Hausdorff %.3f mm (bound %.3f)  volume %+.1e  max damage %.3f mm  %.2f s\n",
+                label.c_str(), (long long)before.triangles, (long long)after.triangles, f.ratio_in_band,
+                f.ratio_in_band_target, f.ratio_at_most, f.angle_above_15, f.hausdorff, f.bound, f.volume_change,
+                r.max_damage, seconds);
+    return f;
+}
+
+void expect_shape_kept(const Figures& f, const std::string& label)
+{
+    EXPECT_GE(f.angle_above_15, 0.99) << label;
+    EXPECT_LT(f.hausdorff, f.bound) << label;
+    EXPECT_LT(std::abs(f.volume_change), 0.005) << label;
+    // Bisection (Algorithm 2) leaves no edge above K/M d but for the motion
+    // of the last smoothing and the change from carried to stable d.
+    EXPECT_GE(f.ratio_at_most, 0.99) << label;
+}
+
+// The paper's sizes (L_max = 20 mm, d = the diameter): the damage limit of
+// K/(30M) d, not the merge length, stops coarsening where the surface bends
+// with a radius near d/2, so the length band is printed but not bounded here
+// (see PaperRegime below for it).
+class RemeshPhantom : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(RemeshPhantom, KeepsTopologyShapeAndVolume)
+{
+    const Case c = phantom_case(GetParam(), 0.5);
+    const RemeshResult r = remesh_to_feature_size(c.input, c.sizing.d, c.params);
+    expect_shape_kept(measure(c, r, GetParam()), GetParam());
+    EXPECT_LE(r.max_damage, kK / (30 * kM) * *std::max_element(c.sizing.d.begin(), c.sizing.d.end()));
+}
+
+INSTANTIATE_TEST_SUITE_P(AllShapes, RemeshPhantom, ::testing::ValuesIn(phantom_names()),
+                         [](const auto& info) { return info.param; });
+
+// Where d is held well below the radius of curvature (L_max = 2.5 mm, 5
+// voxels, on shapes that bend with radii of 4 mm and more), merges are
+// limited by merge_length and the edge length lands in the paper's band.
+class PaperRegime : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(PaperRegime, EdgesReachTheTargetLength)
+{
+    const Case c = phantom_case(GetParam(), 0.5, 0.25, 2.5);
+    const RemeshResult r = remesh_to_feature_size(c.input, c.sizing.d, c.params);
+    const Figures f = measure(c, r, GetParam() + "/2.5");
+    expect_shape_kept(f, GetParam());
+    EXPECT_GE(f.ratio_in_band, 0.90) << GetParam();
+}
+
+INSTANTIATE_TEST_SUITE_P(LargeShapes, PaperRegime, ::testing::Values("sphere", "torus"),
+                         [](const auto& info) { return info.param; });
+
+TEST(RemeshSurface, RealAorta)
+{
+    Case c;
+    c.input = read_stl("../shared/data/vmtk_aorta_capped.stl");
+    orient_outward(c.input);
+    c.voxel = 0.879; // in-plane spacing of the segmentation the surface came from
+    c.params.sizing.L_min = 0.5;
+    c.params.sizing.L_max = 30;
+    c.params.max_displacement = c.voxel / 3;
+    c.sizing = compute_feature_size(c.input, c.params.sizing);
+    const RemeshResult r = remesh_to_feature_size(c.input, c.sizing.d, c.params);
+    expect_shape_kept(measure(c, r, "aorta"), "aorta");
+}
+
+// Edges cut by the plane z = 0: the number around the tube's circumference.
+int64_t edges_around(const SurfaceMesh& mesh)
+{
+    int64_t n = 0;
+    for (const auto& [a, b] : unique_edges(mesh)) n += (mesh.points[a].z < 0) != (mesh.points[b].z < 0);
+    return n;
+}
+
+TEST(RemeshScaleInvariance, TubeOfSixAndTwentyFourVoxelsGetsTheSameRing)
+{
+    // The tube phantom is 6 mm across: 6 voxels at 1 mm, 24 at 0.25 mm; its
+    // d (about 6 mm) is inside [L_min, L_max] for both.
+    const Case coarse = phantom_case("tube", 1.0);
+    const Case fine = phantom_case("tube", 0.25);
+    const RemeshResult rc = remesh_to_feature_size(coarse.input, coarse.sizing.d, coarse.params);
+    const RemeshResult rf = remesh_to_feature_size(fine.input, fine.sizing.d, fine.params);
+    const int64_t n_coarse = edges_around(rc.surface), n_fine = edges_around(rf.surface);
+    std::printf("edges around the tube: %lld at 6 voxels across, %lld at 24 (before remeshing %lld and %lld)\n",
+                (long long)n_coarse, (long long)n_fine, (long long)edges_around(coarse.input),
+                (long long)edges_around(fine.input));
+    ASSERT_GT(n_coarse, 0);
+    // The input rings differ four times over; the remeshed ones must not.
+    EXPECT_LT(std::abs(double(n_coarse - n_fine)) / double(std::max(n_coarse, n_fine)), 0.20);
+}
+
+// Fig. A.2: node i on a crease between two planes meeting along the x axis
+// at slope s, its six neighbours two on the crease and two on each side,
+// closed below by an apex so the surface is a closed manifold.
+SurfaceMesh crease(double s)
+{
+    SurfaceMesh mesh;
+    mesh.points = {{0, 0, 0},                                  // 0: i
+                   {1, 0, 0},     {0.5, 1, -s},  {-0.5, 1, -s}, // 1: j on the crease, 2, 3 on one side
+                   {-1, 0, 0},    {-0.5, -1, -s}, {0.5, -1, -s}, // 4: on the crease, 5, 6 on the other side
+                   {0, 0, -3}};                                 // 7: apex below
+    for (int32_t k = 0; k < 6; ++k) {
+        const int32_t a = 1 + k, b = 1 + (k + 1) % 6;
+        mesh.triangles.push_back({0, a, b});
+        mesh.triangles.push_back({7, b, a});
+    }
+    return mesh;
+}
+
+TEST(RemeshDamage, MergeAlongACreaseIsAcceptedAndAcrossItRejected)
+{
+    const SurfaceMesh mesh = crease(0.5);
+    ASSERT_TRUE(surface_facts(mesh).closed_manifold());
+    ASSERT_GT(signed_volume(mesh), 0);
+    RemeshParams params;
+    const std::vector<double> d(mesh.points.size(), 5.0); // merge_length 1.5, toldamage 0.1 (mm)
+
+    const remeshing::Check along = remeshing::check_merge(mesh, d, 0, 1, params);
+    EXPECT_EQ(along.verdict, remeshing::Verdict::accepted);
+    EXPECT_LT(along.damage, 1e-12);
+
+    const remeshing::Check across = remeshing::check_merge(mesh, d, 0, 2, params);
+    EXPECT_EQ(across.verdict, remeshing::Verdict::damage);
+    EXPECT_GT(across.damage, across.toldamage);
+
+    // On a flat fan the same merge across is harmless: the crease is what the
+    // damage sees.
+    const remeshing::Check flat = remeshing::check_merge(crease(0.0), d, 0, 2, params);
+    EXPECT_EQ(flat.verdict, remeshing::Verdict::accepted);
+    EXPECT_LT(flat.damage, 1e-12);
+}
+
+TEST(RemeshTopology, MergesRefuseToCollapseATetrahedronOrPinchAHandle)
+{
+    SurfaceMesh tet;
+    tet.points = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    tet.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+    const std::vector<double> d(4, 100.0);
+    EXPECT_EQ(remeshing::check_merge(tet, d, 0, 1, RemeshParams{}).verdict, remeshing::Verdict::topology);
+
+    // A coarse torus whose tube is three vertices round: every merge along
+    // the tube would pinch it.
+    SurfaceMesh torus;
+    const int ring = 3, around = 3;
+    for (int u = 0; u < around; ++u)
+        for (int v = 0; v < ring; ++v) {
+            const double a = 2 * std::numbers::pi * u / around, b = 2 * std::numbers::pi * v / ring;
+            torus.points.push_back({(3 + std::cos(b)) * std::cos(a), (3 + std::cos(b)) * std::sin(a), std::sin(b)});
+        }
+    auto id = [&](int u, int v) { return int32_t(((u + around) % around) * ring + (v + ring) % ring); };
+    for (int u = 0; u < around; ++u)
+        for (int v = 0; v < ring; ++v) {
+            torus.triangles.push_back({id(u, v), id(u + 1, v), id(u + 1, v + 1)});
+            torus.triangles.push_back({id(u, v), id(u + 1, v + 1), id(u, v + 1)});
+        }
+    orient_outward(torus);
+    ASSERT_TRUE(surface_facts(torus).closed_manifold());
+    ASSERT_EQ(surface_facts(torus).euler_characteristic, 0);
+    const std::vector<double> big(torus.points.size(), 1000.0);
+    for (const auto& [a, b] : unique_edges(torus)) {
+        EXPECT_NE(remeshing::check_merge(torus, big, a, b, RemeshParams{}).verdict, remeshing::Verdict::accepted);
+        EXPECT_NE(remeshing::check_merge(torus, big, b, a, RemeshParams{}).verdict, remeshing::Verdict::accepted);
+    }
+    // And the whole loop leaves it a torus.
+    RemeshParams params;
+    params.sizing.L_min = 0.5;
+    params.sizing.L_max = 1000;
+    const RemeshResult r = remesh_to_feature_size(torus, big, params);
+    EXPECT_TRUE(surface_facts(r.surface).closed_manifold());
+    EXPECT_EQ(surface_facts(r.surface).euler_characteristic, 0);
+}
+
+TEST(RemeshPatches, PatchBordersStayWhereTheyAre)
+{
+    Case c = phantom_case("tube", 0.5);
+    // The two end caps (and a little of the rim) become patch 1.
+    c.input.triangle_patch.resize(c.input.triangles.size());
+    for (size_t f = 0; f < c.input.triangles.size(); ++f) {
+        const Triangle& t = c.input.triangles[f];
+        const double z = (c.input.points[t[0]].z + c.input.points[t[1]].z + c.input.points[t[2]].z) / 3;
+        c.input.triangle_patch[f] = std::abs(z) > 14.5 ? 1 : 0;
+    }
+    auto border_points = [](const SurfaceMesh& mesh) {
+        const VertexTable fans = vertex_triangles(mesh);
+        std::vector<Vec3> border;
+        for (int32_t v = 0; v < static_cast<int32_t>(mesh.points.size()); ++v) {
+            bool zero = false, one = false;
+            for (const int32_t* f = fans.begin(v); f != fans.end(v); ++f) (mesh.triangle_patch[*f] ? one : zero) = true;
+            if (zero && one) border.push_back(mesh.points[v]);
+        }
+        return border;
+    };
+    const std::vector<Vec3> before = border_points(c.input);
+    ASSERT_GT(before.size(), 20u);
+    const RemeshResult r = remesh_to_feature_size(c.input, c.sizing.d, c.params);
+    ASSERT_EQ(r.surface.triangle_patch.size(), r.surface.triangles.size());
+    EXPECT_TRUE(surface_facts(r.surface).closed_manifold());
+    // Every border node survives at its exact place (bisection may add more).
+    const std::vector<Vec3> after = border_points(r.surface);
+    for (const Vec3& p : before)
+        EXPECT_NE(std::find(after.begin(), after.end(), p), after.end()) << p.x << " " << p.y << " " << p.z;
+    // Both patches are still there and the rest of the surface was coarsened.
+    const auto caps = std::count(r.surface.triangle_patch.begin(), r.surface.triangle_patch.end(), 1);
+    EXPECT_GT(caps, 0);
+    EXPECT_LT(r.surface.triangles.size(), c.input.triangles.size() / 2);
+}
+
+TEST(RemeshInput, BadInputIsRefusedWithAHint)
+{
+    const SurfaceMesh mesh = crease(0.5);
+    RemeshParams params;
+    EXPECT_THROW(remesh_to_feature_size(mesh, std::vector<double>(mesh.points.size(), 1.0), params), InputError)
+        << "L_min and L_max are required";
+    params.sizing.L_min = 0.25;
+    params.sizing.L_max = 20;
+    EXPECT_THROW(remesh_to_feature_size(mesh, std::vector<double>(3, 1.0), params), InputError);
+    EXPECT_THROW(remesh_to_feature_size(mesh, std::vector<double>(mesh.points.size(), -1.0), params), InputError);
+    SurfaceMesh open = mesh;
+    open.triangles.pop_back();
+    EXPECT_THROW(remesh_to_feature_size(open, std::vector<double>(open.points.size(), 1.0), params), InputError);
+    params.cycles = 0;
+    const RemeshResult r = remesh_to_feature_size(mesh, std::vector<double>(mesh.points.size(), 1.0), params);
+    EXPECT_EQ(r.surface.triangles.size(), mesh.triangles.size());
+}
+
+} // namespace
+} // namespace scalemesh
