@@ -41,7 +41,8 @@ case "${1:-run}" in
     ctest --test-dir "$build" --output-on-failure -j "$(nproc)" --timeout 900
     ;;
   bench)
-    "$build/bench/bench_surface" bench/results-surface.json
+    "$build/bench/bench_surface" bench-surface.json
+    "$build/bench/bench_export" 0.6 bench-export.json
     ;;
   *)
     echo "usage: bash setup.sh [run|test|bench]" >&2
