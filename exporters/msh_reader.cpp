@@ -95,7 +95,12 @@ void read_fields(MshSurface& result, const std::vector<int>& views,
 
 } // namespace
 
-MshSurface read_msh_surface(const std::filesystem::path& path)
+namespace {
+
+// Checks that `path` is an MSH file, merges it into a scratch model, and
+// runs `read` on it, the new views adopted by the model.
+template <typename Read>
+void with_msh_file(const std::filesystem::path& path, Read read)
 {
     // gmsh::merge ignores a missing file without an error.
     std::error_code ec;
@@ -112,7 +117,6 @@ MshSurface read_msh_surface(const std::filesystem::path& path)
     file.close();
 
     GmshSession session;
-    MshSurface result;
     try {
         // Merging into a fresh model keeps whatever model a caller has open.
         ScratchModel model("scalemesh_import");
@@ -125,15 +129,59 @@ MshSurface read_msh_surface(const std::filesystem::path& path)
             if (std::find(views_before.begin(), views_before.end(), view) == views_before.end())
                 new_views.push_back(view);
         model.adopt_views(new_views);
-
-        std::unordered_map<size_t, int32_t> index_of_tag;
-        read_points(result, index_of_tag);
-        read_triangles(result, index_of_tag, path);
-        read_fields(result, new_views, index_of_tag, path);
+        read(new_views);
     } catch (const std::string& gmsh_error) { // how Gmsh 4.8 reports errors
         throw IoError(path.string(), "Gmsh cannot read the file: " + gmsh_error);
     }
+}
+
+} // namespace
+
+MshSurface read_msh_surface(const std::filesystem::path& path)
+{
+    MshSurface result;
+    with_msh_file(path, [&](const std::vector<int>& views) {
+        std::unordered_map<size_t, int32_t> index_of_tag;
+        read_points(result, index_of_tag);
+        read_triangles(result, index_of_tag, path);
+        read_fields(result, views, index_of_tag, path);
+    });
     return result;
+}
+
+TetMesh read_msh_volume(const std::filesystem::path& path)
+{
+    TetMesh mesh;
+    with_msh_file(path, [&](const std::vector<int>&) {
+        MshSurface surface;
+        std::unordered_map<size_t, int32_t> index_of_tag;
+        read_points(surface, index_of_tag);
+        read_triangles(surface, index_of_tag, path);
+        std::vector<size_t> tags, nodes;
+        gmsh::model::mesh::getElementsByType(4, tags, nodes);
+        if (tags.empty())
+            throw InputError(path.string() + " holds no tetrahedra", "give a volume mesh (scalemesh run writes mesh.msh)");
+        mesh.tets.reserve(tags.size());
+        for (size_t t = 0; t < tags.size(); ++t) {
+            Tet tet;
+            for (int k = 0; k < 4; ++k) {
+                const auto it = index_of_tag.find(nodes[4 * t + k]);
+                if (it == index_of_tag.end())
+                    throw InputError(path.string() + ": tetrahedron " + std::to_string(tags[t]) + " uses a missing node",
+                                     "the file is damaged; write it again");
+                tet[k] = it->second;
+            }
+            mesh.tets.push_back(tet);
+        }
+        mesh.points = std::move(surface.mesh.points);
+        mesh.boundary_faces = std::move(surface.mesh.triangles);
+        mesh.boundary_patch = std::move(surface.mesh.triangle_patch);
+        for (const auto& [patch, name] : surface.patch_names) {
+            if (patch >= static_cast<int32_t>(mesh.patch_names.size())) mesh.patch_names.resize(patch + 1);
+            mesh.patch_names[patch] = name;
+        }
+    });
+    return mesh;
 }
 
 } // namespace scalemesh

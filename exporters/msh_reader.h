@@ -3,6 +3,7 @@
 // the counterpart of write_surface for .msh, used by the round-trip tests.
 
 #include "core/surface_mesh.h"
+#include "core/tet_mesh.h"
 
 #include <cstdint>
 #include <filesystem>
@@ -29,5 +30,10 @@ struct MshSurface {
 // with $MeshFormat, holds no triangles, or holds a view that is not scalar
 // node data.
 MshSurface read_msh_surface(const std::filesystem::path& path);
+
+// Reads a volume mesh: the points as above, the tetrahedra (element type 4),
+// and the triangles as boundary_faces with their patches and names. Throws as
+// read_msh_surface does, and InputError when the file holds no tetrahedra.
+TetMesh read_msh_volume(const std::filesystem::path& path);
 
 } // namespace scalemesh

@@ -5,10 +5,12 @@
 #include "core/atomic_file.h"
 #include "core/errors.h"
 #include "core/version.h"
+#include "exporters/msh_reader.h"
 #include "exporters/surface_writers.h"
 #include "importers/vdb_importer.h"
 #include "phantom/phantom.h"
 #include "pipeline/run_case.h"
+#include "volume/quality.h"
 
 #include <CLI/CLI.hpp>
 
@@ -101,6 +103,12 @@ int main(int argc, char** argv)
     auto* run_cmd = app.add_subcommand("run", "Run a case directory (scalemesh.toml) and write its outputs into it");
     run_cmd->add_option("case", case_dir, "Case directory holding scalemesh.toml")->required();
 
+    // check
+    std::string check_mesh;
+    auto* check_cmd = app.add_subcommand("check", "Quality report of a volume mesh (.msh): validity, aspect ratio, "
+                                                  "dihedral angles, histogram");
+    check_cmd->add_option("mesh", check_mesh, "Volume mesh (.msh, as scalemesh run writes it)")->required();
+
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
@@ -139,6 +147,31 @@ int main(int argc, char** argv)
                 run_pipeline(config, {.sizing = sizing, .remesh = remesh, .volume = false}, progress(verbosity));
             write_surface(final_surface(run), surface_fields(run, config.K, config.M), surface_out);
             if (verbosity != Verbosity::Quiet) std::fprintf(stderr, "scalemesh: wrote %s\n", surface_out.c_str());
+        } else if (*check_cmd) {
+            if (extension_of(check_mesh) != ".msh")
+                throw InputError("cannot check '" + check_mesh + "': only Gmsh .msh volume meshes are read",
+                                 "give the mesh.msh that scalemesh run writes");
+            const TetMesh mesh = read_msh_volume(check_mesh);
+            const TetMeshFacts facts = tet_mesh_facts(mesh);
+            const QualityReport q = quality_report(mesh);
+            std::printf("%s\n  points %zu, tets %zu, boundary triangles %zu, volume %.9g mm^3\n", check_mesh.c_str(),
+                        mesh.points.size(), mesh.tets.size(), mesh.boundary_faces.size(), facts.volume);
+            std::printf("  tets with volume <= 0: %lld; faces of three or more tets: %lld; boundary %s\n",
+                        static_cast<long long>(facts.nonpositive_tets), static_cast<long long>(facts.overshared_faces),
+                        facts.boundary_matches ? "closed and equal to the boundary triangles"
+                                               : "NOT equal to the boundary triangles");
+            std::printf("  aspect ratio (2 sqrt(6) r_in / l_max): min %.4f, mean %.4f; below 0.1: %.3f%%; below 0.02: %lld\n",
+                        q.min_aspect_ratio, q.mean_aspect_ratio, 100 * q.fraction_below_0_1,
+                        static_cast<long long>(q.below_0_02));
+            std::printf("  smallest dihedral angle %.2f degrees\n  aspect ratio histogram:\n", q.min_dihedral_deg);
+            int64_t largest = 1;
+            for (int64_t n : q.histogram) largest = std::max(largest, n);
+            for (size_t b = 0; b < q.histogram.size(); ++b)
+                std::printf("    %.2f-%.2f %9lld %s\n", b / 20.0, (b + 1) / 20.0, static_cast<long long>(q.histogram[b]),
+                            std::string(static_cast<size_t>(50 * q.histogram[b] / largest), '#').c_str());
+            const bool valid = facts.nonpositive_tets == 0 && facts.overshared_faces == 0 && facts.boundary_matches;
+            std::printf("  %s\n", valid ? "valid" : "INVALID");
+            return valid ? 0 : 4;
         } else if (*run_cmd) {
             const CaseResult result = run_case(case_dir, progress(verbosity));
             if (verbosity != Verbosity::Quiet) {

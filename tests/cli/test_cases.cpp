@@ -124,3 +124,18 @@ INSTANTIATE_TEST_SUITE_P(Cases, SampleCase, ::testing::ValuesIn(case_names()),
 
 } // namespace
 } // namespace scalemesh
+
+namespace scalemesh {
+namespace {
+
+// Issue 6: simpleFoam converges on the tube case with our system/ and 0/.
+// The flow set-up itself is tested on a hand-made channel with an inlet and
+// an outlet (tests/exporters/openfoam_case_test.cpp).
+TEST(SampleCaseFlow, TubeWithInletAndOutletConvergesWithSimpleFoam)
+{
+    GTEST_SKIP() << "pending (issue 7): the tube case has no inlet or outlet yet (openings do not exist), so its "
+                    "boundary is one wall patch and no flow fields are written";
+}
+
+} // namespace
+} // namespace scalemesh

@@ -108,6 +108,26 @@ TEST(Cli, SurfaceInputIsOrientedOutwardAndSized)
     EXPECT_GT(facts.signed_volume, 13000.0);
 }
 
+TEST(Cli, CheckReportsTheQualityOfTheMeshARunWrote)
+{
+    const TempDir tmp;
+    std::ofstream(tmp.path / "scalemesh.toml") << "[input]\nphantom = \"torus\"\nvoxel_size = 0.5\n";
+    ASSERT_EQ(run_scalemesh({"run", tmp.path.string(), "-q"}).exit_code, 0);
+    const std::string out = (tmp.path / "check.txt").string();
+    const std::string cmd = "'" + std::string(std::getenv("SCALEMESH_BINARY")) + "' check '" +
+                            (tmp.path / "mesh.msh").string() + "' > '" + out + "'";
+    ASSERT_EQ(std::system(cmd.c_str()), 0);
+    std::ifstream in(out);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_NE(text.find("tets with volume <= 0: 0;"), std::string::npos) << text;
+    EXPECT_NE(text.find("valid"), std::string::npos) << text;
+    EXPECT_EQ(text.find("INVALID"), std::string::npos) << text;
+    EXPECT_NE(text.find("aspect ratio histogram"), std::string::npos) << text;
+    // A surface mesh is not a volume mesh; a file that is not .msh is refused.
+    expect_refused(run_scalemesh({"check", (tmp.path / "surface.msh").string()}), 2, "no tetrahedra");
+    expect_refused(run_scalemesh({"check", (tmp.path / "report.json").string()}), 2, ".msh");
+}
+
 TEST(Cli, RefusesBadPhantomArguments)
 {
     const TempDir tmp;
