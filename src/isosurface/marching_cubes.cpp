@@ -260,6 +260,11 @@ SurfaceMesh marching_cubes(const openvdb::FloatGrid& grid, const IsosurfaceParam
         }
     });
 
+    // A mirroring image-to-world transform (negative determinant, as many
+    // medical images have) turns the index-space orientation inside out.
+    const openvdb::Mat3d linear = grid.transform().baseMap()->getAffineMap()->getMat4().getMat3();
+    const bool mirrored = linear.det() < 0;
+
     SurfaceMesh mesh;
     mesh.points.reserve(first_vertex[leaf_count]);
     for (const auto& pos : positions)
@@ -275,6 +280,8 @@ SurfaceMesh marching_cubes(const openvdb::FloatGrid& grid, const IsosurfaceParam
     for (const auto& t : triangles) triangle_count += t.size();
     mesh.triangles.reserve(triangle_count);
     for (const auto& t : triangles) mesh.triangles.insert(mesh.triangles.end(), t.begin(), t.end());
+    if (mirrored)
+        for (Triangle& t : mesh.triangles) std::swap(t[1], t[2]);
     return mesh;
 }
 

@@ -5,6 +5,7 @@
 
 #include <toml++/toml.h>
 
+#include <climits>
 #include <cmath>
 #include <fstream>
 #include <set>
@@ -131,7 +132,8 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
     config.directory = dir;
 
     const Section input(root["input"].as_table(), "input", source,
-                        {"phantom", "file", "voxel_size", "noise", "seed", "grid", "iso", "connectivity"});
+                        {"phantom", "file", "voxel_size", "noise", "seed", "grid", "iso", "connectivity", "labels",
+                         "threshold", "level_set"});
     config.phantom = input.get<std::string>("phantom").value_or("");
     config.file = input.get<std::string>("file").value_or("");
     if (config.phantom.empty() == config.file.empty())
@@ -148,6 +150,21 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
     if (seed < 0) throw InputError(input.where("seed") + " must not be negative", "give a seed >= 0");
     config.seed = static_cast<uint64_t>(seed);
     config.grid = input.get<std::string>("grid").value_or("");
+    if (input.has("labels")) {
+        const toml::array* labels = root["input"]["labels"].as_array();
+        if (!labels) throw InputError(input.where("labels") + " must be a list of integers", "write labels = [1]");
+        for (const auto& item : *labels) {
+            const auto v = item.value<int64_t>();
+            if (!v || !item.is_integer() || *v < INT32_MIN || *v > INT32_MAX)
+                throw InputError(input.where("labels") + " holds a value that is not an integer", "write labels = [1, 2]");
+            config.labels.push_back(static_cast<int>(*v));
+        }
+    }
+    if (input.has("threshold")) config.threshold = input.number("threshold", 0, -1e30, 1e30);
+    config.level_set = input.get<bool>("level_set").value_or(false);
+    if (int(!config.labels.empty()) + int(config.threshold.has_value()) + int(config.level_set) > 1)
+        throw InputError(source + ": [input] labels, threshold and level_set exclude each other",
+                         "give labels for a label map, threshold for an intensity image, or level_set = true");
     if (input.has("iso")) config.iso = input.number("iso", 0, -1e30, 1e30);
     const int64_t connectivity = input.get<int64_t>("connectivity").value_or(6);
     if (connectivity != 6 && connectivity != 26)

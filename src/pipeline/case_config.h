@@ -33,6 +33,9 @@ struct CaseConfig {
     double noise = 0.0;             // voxel widths, phantoms only
     uint64_t seed = 1;              // phantoms only
     std::string grid;               // VDB grid name; empty: the first scalar grid
+    std::vector<int> labels;        // medical images: label values that are inside; empty: any nonzero voxel
+    std::optional<double> threshold; // intensity images: inside where value > threshold
+    bool level_set = false;         // medical images: the values are a signed distance, negative inside
     std::optional<double> iso;      // default 0 for level sets, 0.5 for labels
     InsideConnectivity connectivity = InsideConnectivity::Six;
 

@@ -1,6 +1,7 @@
 #include "pipeline/pipeline.h"
 
 #include "core/errors.h"
+#include "importers/image_importer.h"
 #include "importers/stl_importer.h"
 #include "importers/vdb_importer.h"
 #include "isosurface/marching_cubes.h"
@@ -133,9 +134,14 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
                 grid = read_vdb(file, {config.grid});
                 run.input = file.string();
                 run.input_checksum = file_checksum(file);
+            } else if (is_image_file(file)) {
+                grid = read_image(file, {config.labels, config.threshold, config.level_set});
+                run.input = file.string();
+                run.input_checksum = file_checksum(file);
             } else {
                 throw InputError("cannot read '" + file.string() + "': unknown input format '" + ext + "'",
-                                 "give an OpenVDB image (.vdb) or a closed surface (.stl)");
+                                 "give an image (.vdb, .nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd) or a closed "
+                                 "surface (.stl)");
             }
             const openvdb::Vec3d spacing = grid->voxelSize();
             run.voxel_width = std::min({spacing.x(), spacing.y(), spacing.z()});

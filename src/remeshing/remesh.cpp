@@ -17,6 +17,12 @@ namespace scalemesh {
 
 namespace {
 
+// Bounds on the fixed-point loops of merging and swapping.
+constexpr int kMaxRounds = 100;
+constexpr int kMaxPasses = 200;
+constexpr int kMaxBisectionPasses = 60;
+
+
 using remeshing::Check;
 using remeshing::Criteria;
 using remeshing::HalfedgeMesh;
@@ -76,12 +82,16 @@ public:
             RemeshCycle counts;
             mark_everything();
             int64_t merged = 0, swapped = 0;
+            // "Until nothing changes", bounded: on surfaces with degenerate
+            // triangles (angles of 0.01 degrees in some STL files) rounding
+            // can make a swap undo the one before it.
+            int rounds = 0;
             do {
                 merged = merge_nodes();
                 swapped = swap_edges();
                 counts.merges += merged;
                 counts.swaps += swapped;
-            } while (merged > 0 || swapped > 0);
+            } while ((merged > 0 || swapped > 0) && ++rounds < kMaxRounds);
             if (params_.conserve_volume) counts.max_volume_offset = restore_volume();
             counts.bisections = bisect_long_edges();
             smooth();
@@ -110,7 +120,7 @@ private:
     {
         int64_t merges = 0;
         std::vector<std::pair<double, int32_t>> candidates;
-        while (!dirty_vertices_.empty()) {
+        for (int pass = 0; !dirty_vertices_.empty() && pass < kMaxPasses; ++pass) {
             std::vector<int32_t> work;
             work.swap(dirty_vertices_);
             std::sort(work.begin(), work.end());
@@ -150,7 +160,7 @@ private:
     int64_t swap_edges()
     {
         int64_t swaps = 0;
-        while (!dirty_faces_.empty()) {
+        for (int pass = 0; !dirty_faces_.empty() && pass < kMaxPasses; ++pass) {
             std::vector<int32_t> work;
             work.swap(dirty_faces_);
             std::sort(work.begin(), work.end());
@@ -252,7 +262,15 @@ private:
     {
         int64_t bisections = 0;
         std::vector<std::tuple<double, int32_t, int32_t>> E;
-        for (;;) {
+        for (int pass = 0;; ++pass) {
+            // Every pass halves the edges it finds too long, so a legitimate
+            // input is done in far fewer passes; past that, stop with an
+            // error rather than run on.
+            if (pass == kMaxBisectionPasses)
+                throw StageError("remeshing", "edge bisection (Algorithm 2) did not finish after " +
+                                                  std::to_string(kMaxBisectionPasses) + " passes and " +
+                                                  std::to_string(bisections) + " bisections; the surface may have "
+                                                  "degenerate triangles or the feature size a tiny value");
             E.clear();
             for (int32_t h = 0; h < mesh_.halfedge_capacity(); ++h) {
                 if (!mesh_.face_alive(HalfedgeMesh::face(h)) || h > mesh_.twin(h)) continue;

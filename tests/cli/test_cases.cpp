@@ -36,8 +36,19 @@ TEST_P(SampleCase, RunsAndMeetsItsExpectedBounds)
 {
     const TempDir tmp;
     const std::filesystem::path dir = tmp.path / GetParam();
-    std::filesystem::copy(std::filesystem::path("cases") / GetParam(), dir, std::filesystem::copy_options::recursive);
-    std::filesystem::remove(dir / "report.json");
+    const std::filesystem::path source = std::filesystem::path("cases") / GetParam();
+    std::filesystem::create_directories(dir);
+    for (const char* name : {"scalemesh.toml", "expected.toml"}) std::filesystem::copy(source / name, dir / name);
+    // An input file named relative to the case resolves against the original.
+    {
+        std::ifstream in(dir / "scalemesh.toml");
+        const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        std::smatch m;
+        if (std::regex_search(text, m, std::regex(R"re(file = "([^"/][^"]*)")re"))) {
+            const std::string absolute = std::filesystem::absolute(source / m[1].str()).lexically_normal().string();
+            std::ofstream(dir / "scalemesh.toml") << m.prefix() << "file = \"" << absolute << "\"" << m.suffix();
+        }
+    }
     const CommandResult r = run_scalemesh({"run", dir.string(), "-q"});
     ASSERT_EQ(r.exit_code, 0) << r.err;
     EXPECT_TRUE(r.err.empty()) << "-q must print nothing: " << r.err;

@@ -153,6 +153,19 @@ TEST(MarchingCubes, LevelSetSphereIsClosedAndNearTheRadius)
     for (const Vec3& p : mesh.points) EXPECT_NEAR(norm(p), R, 0.05);
 }
 
+TEST(MarchingCubes, MirroringTransformsStillGiveOutwardNormals)
+{
+    // Many medical images map index to world with a reflection (x flipped).
+    auto grid = voxelize(*make_shape("torus", 0.5), {.voxel_size = 0.5});
+    openvdb::math::Mat4d m = openvdb::math::Mat4d::identity();
+    m.setToScale(openvdb::Vec3d(-0.5, 0.5, 0.5));
+    grid->setTransform(openvdb::math::Transform::createLinearTransform(m));
+    const SurfaceMesh mesh = marching_cubes(*grid);
+    expect_closed_oriented(mesh, "mirrored");
+    EXPECT_NEAR(signed_volume(mesh), static_cast<double>(grid->activeVoxelCount()) * 0.125,
+                0.03 * static_cast<double>(grid->activeVoxelCount()) * 0.125);
+}
+
 TEST(MarchingCubes, RefusesGridsWithoutABoundedSurface)
 {
     auto empty = openvdb::FloatGrid::create(0.0f);

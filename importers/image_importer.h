@@ -1,0 +1,66 @@
+#pragma once
+// Reading medical images (NIfTI, NRRD, MetaImage) into the float grid the
+// isosurface stage takes (paper section 2), through ITK's ImageIO.
+
+#include <openvdb/openvdb.h>
+
+#include <filesystem>
+#include <optional>
+#include <vector>
+
+namespace scalemesh {
+
+// How voxel values become "inside". At most one of labels, threshold and
+// level_set may be given; with none of them, every nonzero voxel is inside.
+struct ImageImportParams {
+    std::vector<int> labels{};          // label values merged into inside; empty: any nonzero voxel
+    std::optional<double> threshold{};  // intensity images: inside where value > threshold (image units)
+    bool level_set = false;             // signed field, negative inside: values kept as they are
+};
+
+// Reads a 3D scalar image from .nii, .nii.gz, .nrrd, .nhdr, .mha or .mhd
+// (the extension chooses the reader, case-insensitively).
+//
+// The grid's transform is the image-to-world map: image voxel (i,j,k) is grid
+// voxel (i,j,k), at world = origin + Direction * diag(spacing) * (i,j,k).
+// Coordinates are ITK's physical coordinates: LPS (x towards the patient's
+// left, y posterior, z superior) in the file's length unit, millimetres for
+// NIfTI (ITK converts its metres and microns to mm; it negates NIfTI's RAS x
+// and y, so a NIfTI's world positions come out with x and y negated). NRRD
+// and MetaImage origins, directions and spacings are taken as written.
+// The direction may be a reflection (determinant -1).
+//
+// Labels, threshold, or the default "nonzero": a 0/1 grid named "label" of
+// class GRID_FOG_VOLUME, background 0, exactly the inside voxels active with
+// value 1 (marching cubes' default iso 0.5 applies).
+// level_set: a grid named "level_set" of class GRID_LEVEL_SET holding every
+// image voxel, active, with its value; outside the image the background is
+// positive (max |value| + the largest spacing), so the image border closes
+// the surface. Values are not resampled or renormalised, so any iso value
+// within the image's range can be used downstream (inside where value < iso).
+//
+// The grid carries the image size as Vec3i metadata "image_size" (voxels), so
+// later stages can tell where the image border is.
+//
+// Integer labels are compared exactly up to 2^53; a NIfTI's scl_slope and
+// scl_inter are applied before labels, threshold or level set. A 4D image is
+// read when its fourth size is 1. Reads are serialised (ITK's NIfTI reader
+// keeps static state); ITK's diagnostics are never printed but folded into
+// the error message.
+//
+// Throws IoError when the file is missing or cannot be opened; InputError for
+// an unsupported extension (listing the supported ones), a file ITK cannot
+// parse (wrong magic, bad header: ITK's reason in one line), data shorter
+// than the header promises, a 1D/2D image, a 4D image with more than one
+// volume, a multi-component (vector, RGB, complex) image, a zero size, more
+// than 2^31 voxels, a non-positive or non-finite spacing, a singular
+// direction matrix, NaN or infinite voxel values, NIfTI-2 (ITK 5.2 reads
+// NIfTI-1 only), MetaImage voxels stored as text, conflicting params, or no
+// voxel inside (listing up to 10 values present, or the value range).
+openvdb::FloatGrid::Ptr read_image(const std::filesystem::path& path, const ImageImportParams& params = {});
+
+// True when the extension is one read_image reads (.nii, .nii.gz, .nrrd,
+// .nhdr, .mha, .mhd, any case).
+bool is_image_file(const std::filesystem::path& path);
+
+} // namespace scalemesh
