@@ -43,9 +43,11 @@ case "${1:-run}" in
     ctest --test-dir "$build" --output-on-failure -j "$(nproc)" --timeout 900
     # The fast part of the suite again, built with AddressSanitizer and
     # UndefinedBehaviorSanitizer (any report fails the test). Leak checking is
-    # off: the Gmsh SDK keeps allocations until the process ends. An absurd
-    # allocation (a corrupt file's sizes) fails with bad_alloc, as it would
-    # without the sanitizer, so the readers' refusal is what gets tested.
+    # off: the Gmsh SDK keeps allocations until the process ends. One test is
+    # left to the build above: a truncated .vdb makes OpenVDB's own blosc
+    # reader ask for a buffer of the corrupt size, which the normal build
+    # refuses with bad_alloc (and scalemesh with an error) but which
+    # AddressSanitizer reports as out of memory and aborts on.
     asan=build-asan
     if [ ! -f "$asan/build.ninja" ]; then
       cmake -S . -B "$asan" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSCALEMESH_SANITIZE=ON -DSCALEMESH_BENCH=OFF
@@ -53,8 +55,9 @@ case "${1:-run}" in
     fast_targets=$(sed -n 's/^scalemesh_test(\([a-z_]*\) FAST.*/\1/p' tests/*/CMakeLists.txt)
     # shellcheck disable=SC2086
     cmake --build "$asan" --target $fast_targets
-    ASAN_OPTIONS=detect_leaks=0:abort_on_error=1:allocator_may_return_null=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-      ctest --test-dir "$asan" --output-on-failure -j "$(nproc)" --timeout 900 -L fast
+    ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+      ctest --test-dir "$asan" --output-on-failure -j "$(nproc)" --timeout 900 -L fast \
+      -E 'VdbImporter.RefusesMissingCorruptAndEmptyFiles'
     ;;
   bench)
     "$build/bench/bench_surface" bench-surface.json
