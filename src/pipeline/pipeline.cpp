@@ -99,6 +99,21 @@ int64_t refine_near(const SurfaceMesh& surface, const SurfaceMesh& remeshed, con
     return changed;
 }
 
+// Algorithm 1's parameters for a case, with L_min and L_max in mm as the run
+// resolved them.
+SizingParams sizing_params(const CaseConfig& config, const PipelineRun& run)
+{
+    SizingParams params;
+    params.K = config.K;
+    params.M = config.M;
+    params.G = config.G;
+    params.L_min = run.L_min;
+    params.L_max = run.L_max;
+    params.curvature_term = config.curvature;
+    params.threads = config.threads;
+    return params;
+}
+
 } // namespace
 
 PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& options,
@@ -180,15 +195,7 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
 
     if (options.sizing) {
         StageClock clock(run, listener, "sizing");
-        SizingParams params;
-        params.K = config.K;
-        params.M = config.M;
-        params.G = config.G;
-        params.L_min = run.L_min;
-        params.L_max = run.L_max;
-        params.curvature_term = config.curvature;
-        params.threads = config.threads;
-        run.sizing = compute_feature_size(surface, params);
+        run.sizing = compute_feature_size(surface, sizing_params(config, run));
         const auto [dmin, dmax] = std::minmax_element(run.sizing->d.begin(), run.sizing->d.end());
         std::ostringstream summary;
         summary << "d in [" << *dmin << ", " << *dmax << "] mm, " << run.sizing->D.size() * 2 << " rays";
@@ -202,13 +209,7 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
     remesh.M = config.M;
     remesh.cycles = config.remesh_cycles;
     remesh.max_displacement = config.smoothing_reach.mm(run.voxel_width);
-    remesh.sizing.K = config.K;
-    remesh.sizing.M = config.M;
-    remesh.sizing.G = config.G;
-    remesh.sizing.L_min = run.L_min;
-    remesh.sizing.L_max = run.L_max;
-    remesh.sizing.curvature_term = config.curvature;
-    remesh.sizing.threads = config.threads;
+    remesh.sizing = sizing_params(config, run);
     VolumeParams volume;
     volume.K = config.K;
     volume.M = config.M;
