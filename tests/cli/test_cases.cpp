@@ -9,6 +9,7 @@
 
 #include <fstream>
 #include <regex>
+#include <sstream>
 
 namespace scalemesh {
 namespace {
@@ -86,6 +87,20 @@ TEST_P(SampleCase, RunsAndMeetsItsExpectedBounds)
         ASSERT_TRUE(std::regex_search(text, cells, std::regex(R"(cells:\s+(\d+))")));
         EXPECT_EQ(std::stol(cells[1]), report["openfoam"]["cells"].get<long>());
         ASSERT_TRUE(std::regex_search(text, volume, std::regex(R"(Total volume = ([0-9.eE+-]+))")));
+        // The patch table: one line per patch after the "Patch Faces" header,
+        // in the order of the boundary file.
+        const size_t table = text.find("    Patch               Faces");
+        ASSERT_NE(table, std::string::npos) << text;
+        std::istringstream rows(text.substr(text.find('\n', table) + 1));
+        const nlohmann::json& expected_faces = report["openfoam"]["patch_faces"];
+        for (size_t p = 0; p < expected_faces.size(); ++p) {
+            std::string name;
+            long faces = -1;
+            rows >> name >> faces;
+            std::string rest;
+            std::getline(rows, rest);
+            EXPECT_EQ(faces, expected_faces[p].get<long>()) << "patch " << name;
+        }
         // checkMesh works in metres, the report in mm.
         EXPECT_NEAR(std::stod(volume[1]) * 1e9, report["volume"]["volume_mm3"].get<double>(),
                     1e-6 * report["volume"]["volume_mm3"].get<double>());
