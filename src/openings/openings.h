@@ -1,0 +1,141 @@
+#pragma once
+// Inlets and outlets: paper section 3 ("M layers go across the outlet rather
+// than into the outlet ... by constraining the physical tissue normals
+// adjacent to each outlet to lie in the plane of that outlet").
+//
+//   cut_and_cap        the closed lumen surface is cut by each opening's plane,
+//                      the part beyond it removed and the hole closed by a
+//                      flat cap (its own patch, vertices on the plane)
+//   cap_feature_size   Algorithm 1 with the normals of rim nodes and of the
+//                      wall nodes next to them projected into the cap plane,
+//                      so their layers run across the opening
+//   ring_caps          after remeshing, each cap is rebuilt from its rim and
+//                      the rim nodes' layer points laid out in the plane: the
+//                      cap shows the same rings as a wall cross-section
+//
+// Patch ids of the surfaces made here: 0 is the wall, cap i (0-based, in the
+// order of the returned caps) is patch i + 1.
+
+#include "core/surface_mesh.h"
+#include "sizing/feature_size.h"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace scalemesh {
+
+enum class OpeningType { Inlet, Outlet };
+
+// A plane through `point` whose unit `normal` points out of the lumen, away
+// from the part of the anatomy that is kept.
+struct Plane {
+    Vec3 point;
+    Vec3 normal;
+    double signed_distance(const Vec3& x) const { return dot(x - point, normal); }
+};
+
+// An opening as the case file gives it: a clip plane (optionally with a
+// radius picking the crossing whose centre lies within it of the point), or a
+// side of the image border ("x-", "x+", "y-", "y+", "z-", "z+"), cut `inset`
+// mm inside the outermost surface point on that side.
+struct OpeningSpec {
+    std::string name;
+    OpeningType type = OpeningType::Outlet;
+    bool border = false;
+    Plane plane;          // clip plane (border == false)
+    double radius = 0;    // mm; 0: the plane must cross the lumen exactly once
+    std::string side;     // border == true
+    double inset = 0;     // mm, border openings
+};
+
+// The image's index-to-world map, x = origin + i a0 + j a1 + k a2, so that
+// border sides follow the image axes (NIfTI direction matrices included).
+struct ImageFrame {
+    Vec3 origin{0, 0, 0};
+    Vec3 axis[3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+};
+
+struct Cap {
+    std::string name;
+    OpeningType type = OpeningType::Outlet;
+    int32_t patch = 0;  // triangle_patch id of its faces
+    Plane plane;
+    double area = 0;    // mm^2 when made
+    Vec3 centroid;      // area centroid when made
+};
+
+struct CappedSurface {
+    SurfaceMesh surface; // closed, oriented; triangle_patch set
+    std::vector<Cap> caps;
+};
+
+// Cuts `surface` (closed, oriented 2-manifold, outward normals) by every
+// opening in order and caps each crossing. A border opening becomes one cap
+// per separate piece of its cross-section, named "<name>_1", "<name>_2", ...
+// by decreasing area (just "<name>" when there is one piece).
+//
+// Guarantees: the result is a closed, oriented 2-manifold; every vertex of a
+// cap face lies on its plane to round-off (it is projected onto it); the cap
+// faces of one cap tile the cross-section the plane cuts from the lumen.
+//
+// Throws InputError, naming the opening, when: a plane misses the lumen (or
+// no crossing lies within `radius` of its point); a plane crosses the lumen
+// in several places and no radius picks one; the part of the surface beyond
+// the chosen crossing reaches back across the plane elsewhere (move the
+// plane or give a radius); a plane cuts an earlier opening's cap; two
+// openings share a name; nothing would be left.
+CappedSurface cut_and_cap(const SurfaceMesh& surface, const std::vector<OpeningSpec>& openings,
+                          const ImageFrame& frame);
+
+// The node classes the cap rules use.
+struct CapNodes {
+    std::vector<int32_t> cap_of;  // per point: cap index (>= 0) of a rim or cap-interior node, else -1
+    std::vector<char> rim;        // per point: 1 on a border between the wall and a cap
+    std::vector<char> interior;   // per point: 1 when every face around it is one cap's
+    std::vector<char> next_to_rim; // per point: 1 for a wall node joined by an edge to a rim node
+};
+CapNodes classify_cap_nodes(const SurfaceMesh& surface, const std::vector<Cap>& caps);
+
+// The sizing stage on a capped surface. As compute_feature_size, except:
+// - the normal of a rim node, and of a wall node next to one, is its wall
+//   normal (angle-weighted over wall faces only) projected into the cap plane
+//   (component along the cap normal zero to round-off), then normalised;
+// - a rim node's D is measured in the cap plane: along its constrained normal
+//   to the far side of the rim polygon;
+// - a cap-interior node takes the D of the nearest rim node of its cap;
+// - rim and cap-interior nodes have D_out = +infinity and inward_ok = 0:
+//   they shoot no layer points into the domain (their layer points lie in
+//   the cap, see ring_caps).
+// Throws as compute_feature_size does.
+FeatureSize cap_feature_size(const SurfaceMesh& surface, const std::vector<Cap>& caps, const SizingParams& params);
+
+struct RingParams {
+    double M = 7;
+    double growth = 1.0;           // as VolumeParams::growth
+    double L_max = 0;              // mm, filler spacing min(D, L_max) / M
+    double filter_fraction = 0.3;  // a point closer than this fraction of its spacing to a kept one is dropped
+};
+
+// Rebuilds every cap of `surface` (sized by cap_feature_size) from its rim:
+// the rim nodes' Algorithm 4 points laid along their in-plane normals (layer
+// points at lambda_m d, filler points at min(D, L_max)/M, up to D/2), kept
+// when inside the rim and not crowding a kept point, triangulated with the rim
+// as constraint (constrained Delaunay in the plane). Wall faces and rim nodes
+// are kept with their ids; the old cap-interior nodes are dropped.
+//
+// `sizing` is replaced by the sizing of the result: the kept nodes keep
+// theirs, a new node takes its generator's d and D, the cap normal, D_out =
+// +infinity and inward_ok = 0. The new points follow the kept ones.
+//
+// Guarantees: closed oriented 2-manifold with the same Euler characteristic,
+// cap vertices on their planes to round-off. Throws StageError when a cap
+// cannot be triangulated (a rim crossing itself).
+SurfaceMesh ring_caps(const SurfaceMesh& surface, const std::vector<Cap>& caps, FeatureSize& sizing,
+                      const RingParams& params);
+
+// The outward normal of each patch: zero for the wall (patch 0), the cap
+// plane's normal for each cap, indexed by patch id.
+std::vector<Vec3> patch_normals(const std::vector<Cap>& caps);
+
+} // namespace scalemesh

@@ -1,0 +1,287 @@
+// Inlets and outlets (paper section 3): cut and cap, the cap rules of the
+// sizing stage, and caps rebuilt from the rim's layer points.
+
+#include "core/adjacency.h"
+#include "core/errors.h"
+#include "core/surface_mesh.h"
+#include "isosurface/marching_cubes.h"
+#include "openings/openings.h"
+#include "phantom/phantom.h"
+#include "smoothing/volume_conserving_smoothing.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace scalemesh {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+SurfaceMesh smoothed_phantom(const std::string& name, double h)
+{
+    const auto shape = make_shape(name, h);
+    SurfaceMesh mesh = marching_cubes(*voxelize(*shape, {.voxel_size = h}));
+    smooth_volume_conserving(mesh, {.sweeps = 10, .omega = 1.0, .max_displacement = 0.5 * h});
+    return mesh;
+}
+
+OpeningSpec plane_opening(const std::string& name, OpeningType type, Vec3 point, Vec3 normal, double radius = 0)
+{
+    OpeningSpec spec;
+    spec.name = name;
+    spec.type = type;
+    spec.plane = {point, normalized(normal)};
+    spec.radius = radius;
+    return spec;
+}
+
+double extent(const SurfaceMesh& mesh)
+{
+    Vec3 lo, hi;
+    bounding_box(mesh, lo, hi);
+    return distance(lo, hi);
+}
+
+// The tube phantom (radius 3 mm, z in [-15, 15]) opened at z = -12 and z = 12.
+CappedSurface opened_tube(double h = 0.5)
+{
+    const SurfaceMesh tube = smoothed_phantom("tube", h);
+    return cut_and_cap(tube,
+                       {plane_opening("inlet", OpeningType::Inlet, {0, 0, -12}, {0, 0, -1}),
+                        plane_opening("outlet", OpeningType::Outlet, {0, 0, 12}, {0, 0, 1})},
+                       {});
+}
+
+TEST(CutAndCap, TubeGetsTwoFlatCapsAndStaysClosed)
+{
+    const CappedSurface capped = opened_tube();
+    ASSERT_EQ(capped.caps.size(), 2u);
+    const SurfaceFacts facts = surface_facts(capped.surface);
+    EXPECT_TRUE(facts.closed_manifold());
+    EXPECT_EQ(facts.components, 1);
+    EXPECT_EQ(facts.euler_characteristic, 2);
+    ASSERT_EQ(capped.surface.triangle_patch.size(), capped.surface.triangles.size());
+    const double scale = extent(capped.surface);
+    std::vector<double> area(3, 0.0);
+    double worst = 0;
+    for (size_t f = 0; f < capped.surface.triangles.size(); ++f) {
+        const int32_t patch = capped.surface.triangle_patch[f];
+        if (patch == 0) continue;
+        const Cap& cap = capped.caps[patch - 1];
+        const Triangle& t = capped.surface.triangles[f];
+        for (int32_t v : t) worst = std::max(worst, std::abs(cap.plane.signed_distance(capped.surface.points[v])));
+        const Vec3& a = capped.surface.points[t[0]];
+        // Counter-clockwise seen from outside: the area along the outward normal is positive.
+        area[patch] += 0.5 * dot(cross(capped.surface.points[t[1]] - a, capped.surface.points[t[2]] - a), cap.plane.normal);
+    }
+    EXPECT_LT(worst, 1e-9 * scale);
+    for (int p = 1; p <= 2; ++p) {
+        EXPECT_NEAR(area[p], capped.caps[p - 1].area, 1e-9 * area[p]);
+        // The smoothed voxel tube's cross-section is a circle of radius 3 mm to within a voxel's rounding.
+        EXPECT_NEAR(area[p], kPi * 9, 0.05 * kPi * 9);
+    }
+    EXPECT_EQ(capped.caps[0].name, "inlet");
+    EXPECT_EQ(capped.caps[1].name, "outlet");
+    // The kept part is z in [-12, 12]: the volume of a 24 mm long, 3 mm radius cylinder.
+    EXPECT_NEAR(facts.signed_volume, kPi * 9 * 24, 0.05 * kPi * 9 * 24);
+    Vec3 lo, hi;
+    bounding_box(capped.surface, lo, hi);
+    EXPECT_NEAR(lo.z, -12, 1e-9 * scale);
+    EXPECT_NEAR(hi.z, 12, 1e-9 * scale);
+}
+
+TEST(CutAndCap, BorderOpeningCutsInsideTheOutermostPoint)
+{
+    const SurfaceMesh tube = smoothed_phantom("tube", 0.5);
+    Vec3 lo, hi;
+    bounding_box(tube, lo, hi);
+    OpeningSpec spec;
+    spec.name = "inlet";
+    spec.type = OpeningType::Inlet;
+    spec.border = true;
+    spec.side = "z-";
+    spec.inset = 1.0;
+    const CappedSurface capped = cut_and_cap(tube, {spec}, {});
+    ASSERT_EQ(capped.caps.size(), 1u);
+    EXPECT_NEAR(capped.caps[0].plane.point.z, lo.z + 1.0, 1e-6);
+    EXPECT_NEAR(capped.caps[0].plane.normal.z, -1.0, 1e-12);
+    EXPECT_TRUE(surface_facts(capped.surface).closed_manifold());
+}
+
+TEST(CutAndCap, BadOpeningsAreRefused)
+{
+    const SurfaceMesh tube = smoothed_phantom("tube", 0.5);
+    // A plane that misses the lumen.
+    EXPECT_THROW(cut_and_cap(tube, {plane_opening("inlet", OpeningType::Inlet, {0, 0, -40}, {0, 0, -1})}, {}),
+                 InputError);
+    // Two openings with one name.
+    EXPECT_THROW(cut_and_cap(tube,
+                             {plane_opening("a", OpeningType::Inlet, {0, 0, -12}, {0, 0, -1}),
+                              plane_opening("a", OpeningType::Outlet, {0, 0, 12}, {0, 0, 1})},
+                             {}),
+                 InputError);
+    // A plane crossing the same vessel twice: the torus (R 10, r 4 in z = 0)
+    // cut by x = 0 meets the lumen at y = +-10.
+    const SurfaceMesh torus = smoothed_phantom("torus", 0.5);
+    try {
+        cut_and_cap(torus, {plane_opening("outlet", OpeningType::Outlet, {0, 0, 0}, {1, 0, 0})}, {});
+        FAIL() << "a plane crossing the lumen twice was accepted";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("2 places"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("radius"), std::string::npos) << e.what();
+    }
+    // A radius picks one crossing, but what lies beyond it reaches back
+    // across the plane at the other.
+    try {
+        cut_and_cap(torus, {plane_opening("outlet", OpeningType::Outlet, {0, 10, 0}, {1, 0, 0}, 5.0)}, {});
+        FAIL() << "a cut whose far part reaches back across the plane was accepted";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("reaches back"), std::string::npos) << e.what();
+    }
+    // A second plane cutting the first one's cap.
+    EXPECT_THROW(cut_and_cap(tube,
+                             {plane_opening("a", OpeningType::Inlet, {0, 0, -12}, {0, 0, -1}),
+                              plane_opening("b", OpeningType::Outlet, {0, 0, -12}, {0, 1, -1})},
+                             {}),
+                 InputError);
+}
+
+TEST(CutAndCap, RadiusPicksOneBranchOfTheBifurcation)
+{
+    // The daughters end at (+-7.5, 0, 12.99) along 30 degrees from z; a plane
+    // across the right daughter near its end, normal along it.
+    const SurfaceMesh bif = smoothed_phantom("bifurcation", 0.25);
+    const Vec3 axis = normalized(Vec3{std::sin(kPi / 6), 0, std::cos(kPi / 6)});
+    const Vec3 point = 12.0 * axis;
+    const CappedSurface capped =
+        cut_and_cap(bif, {plane_opening("right", OpeningType::Outlet, point, axis, 3.0)}, {});
+    ASSERT_EQ(capped.caps.size(), 1u);
+    EXPECT_NEAR(capped.caps[0].area, kPi * 1.5 * 1.5, 0.1 * kPi * 1.5 * 1.5);
+    EXPECT_LT(distance(capped.caps[0].centroid, point), 0.2);
+    EXPECT_TRUE(surface_facts(capped.surface).closed_manifold());
+}
+
+SizingParams tube_sizing()
+{
+    SizingParams p;
+    p.L_min = 0.25;
+    p.L_max = 20;
+    return p;
+}
+
+TEST(CapSizing, RimNormalsLieInTheCapPlaneAndDSpansTheOpening)
+{
+    const CappedSurface capped = opened_tube();
+    const FeatureSize sizing = cap_feature_size(capped.surface, capped.caps, tube_sizing());
+    const CapNodes nodes = classify_cap_nodes(capped.surface, capped.caps);
+    int64_t rims = 0, near = 0;
+    for (size_t i = 0; i < capped.surface.points.size(); ++i) {
+        if (nodes.rim[i] || nodes.next_to_rim[i]) {
+            const int32_t c = nodes.rim[i] ? nodes.cap_of[i] : (capped.surface.points[i].z < 0 ? 0 : 1);
+            EXPECT_LT(std::abs(dot(sizing.normals[i], capped.caps[c].plane.normal)), 1e-9) << "node " << i;
+            EXPECT_NEAR(norm(sizing.normals[i]), 1.0, 1e-12);
+        }
+        if (nodes.rim[i]) {
+            ++rims;
+            // Across the opening: the diameter, 6 mm, to a voxel's rounding.
+            EXPECT_NEAR(sizing.D[i], 6.0, 0.5) << "rim node " << i;
+            EXPECT_EQ(sizing.inward_ok[i], 0);
+        }
+        near += nodes.next_to_rim[i];
+        if (nodes.interior[i]) EXPECT_EQ(sizing.inward_ok[i], 0);
+    }
+    EXPECT_GT(rims, 40);
+    EXPECT_GT(near, 40);
+}
+
+// A closed cylinder of radius R along z, z in [-L/2, L/2], `around` nodes per
+// ring, its ends flat fans (patches 1 at z = -L/2 and 2 at z = L/2).
+CappedSurface capped_cylinder(double R, double L, int around, int rings)
+{
+    CappedSurface c;
+    SurfaceMesh& m = c.surface;
+    for (int k = 0; k < rings; ++k)
+        for (int j = 0; j < around; ++j) {
+            const double a = 2 * kPi * j / around;
+            m.points.push_back({R * std::cos(a), R * std::sin(a), -L / 2 + L * k / (rings - 1)});
+        }
+    const auto id = [&](int k, int j) { return static_cast<int32_t>(k * around + (j % around)); };
+    for (int k = 0; k + 1 < rings; ++k)
+        for (int j = 0; j < around; ++j) {
+            m.triangles.push_back({id(k, j), id(k, j + 1), id(k + 1, j + 1)});
+            m.triangles.push_back({id(k, j), id(k + 1, j + 1), id(k + 1, j)});
+            m.triangle_patch.insert(m.triangle_patch.end(), {0, 0});
+        }
+    const auto bottom = static_cast<int32_t>(m.points.size());
+    m.points.push_back({0, 0, -L / 2});
+    const auto top = static_cast<int32_t>(m.points.size());
+    m.points.push_back({0, 0, L / 2});
+    for (int j = 0; j < around; ++j) {
+        m.triangles.push_back({bottom, id(0, j + 1), id(0, j)});
+        m.triangle_patch.push_back(1);
+        m.triangles.push_back({top, id(rings - 1, j), id(rings - 1, j + 1)});
+        m.triangle_patch.push_back(2);
+    }
+    Cap inlet, outlet;
+    inlet.name = "inlet";
+    inlet.type = OpeningType::Inlet;
+    inlet.patch = 1;
+    inlet.plane = {{0, 0, -L / 2}, {0, 0, -1}};
+    outlet.name = "outlet";
+    outlet.patch = 2;
+    outlet.plane = {{0, 0, L / 2}, {0, 0, 1}};
+    c.caps = {inlet, outlet};
+    return c;
+}
+
+TEST(RingCaps, CylinderCapShowsThreeRingsForSevenLayers)
+{
+    constexpr double R = 3.0;
+    constexpr int around = 24;
+    const CappedSurface capped = capped_cylinder(R, 20, around, 26);
+    ASSERT_TRUE(surface_facts(capped.surface).closed_manifold());
+    FeatureSize sizing = cap_feature_size(capped.surface, capped.caps, tube_sizing());
+    const SurfaceMesh ringed = ring_caps(capped.surface, capped.caps, sizing, {.M = 7, .growth = 1.0, .L_max = 20});
+    const SurfaceFacts facts = surface_facts(ringed);
+    ASSERT_TRUE(facts.closed_manifold());
+    EXPECT_EQ(facts.euler_characteristic, 2);
+    EXPECT_NEAR(facts.signed_volume, signed_volume(capped.surface), 1e-9 * facts.signed_volume);
+    ASSERT_EQ(sizing.d.size(), ringed.points.size());
+    const CapNodes nodes = classify_cap_nodes(ringed, capped.caps);
+    for (const Cap& cap : capped.caps) {
+        std::vector<int> ring_count(4, 0);
+        int rim = 0;
+        for (size_t i = 0; i < ringed.points.size(); ++i) {
+            if (nodes.cap_of[i] != cap.patch - 1) continue;
+            rim += nodes.rim[i];
+            if (!nodes.interior[i]) continue;
+            const Vec3& x = ringed.points[i];
+            EXPECT_LT(std::abs(cap.plane.signed_distance(x)), 1e-12 * 20);
+            EXPECT_EQ(sizing.inward_ok[i], 0);
+            // Ring m lies m d/M inside the rim (d = D = 6 mm, the diameter).
+            const double m = (R - std::hypot(x.x, x.y)) / (sizing.d[i] / 7);
+            const int ring = static_cast<int>(std::lround(m));
+            ASSERT_GE(ring, 1);
+            ASSERT_LE(ring, 3) << "a cap point beyond the third ring at " << m << " d/M";
+            EXPECT_NEAR(m, ring, 0.15 * ring) << "cap point off its ring";
+            ++ring_count[ring];
+        }
+        EXPECT_EQ(rim, around);
+        EXPECT_EQ(ring_count[1], around);
+        // The inner rings are thinned where neighbouring points crowd.
+        EXPECT_GE(ring_count[2], around / 2);
+        EXPECT_GE(ring_count[3], 3);
+    }
+    for (size_t i = 0; i < ringed.points.size(); ++i) {
+        if (nodes.rim[i]) {
+            EXPECT_NEAR(sizing.D[i], 2 * R, 1e-9);
+            EXPECT_EQ(sizing.inward_ok[i], 0);
+        }
+    }
+}
+
+} // namespace
+} // namespace scalemesh
