@@ -314,11 +314,61 @@ public:
         }
         mesh_.triangles = std::move(kept);
         mesh_.triangle_patch = std::move(kept_patch);
+        if (spec.extension > 0)
+            for (size_t p = 0; p < pieces.size(); ++p) extend(caps_[caps_.size() - pieces.size() + p], spec.extension);
         compact();
         if (mesh_.triangles.empty()) throw InputError(who + ": nothing of the surface is left", "flip the plane's normal");
     }
 
 private:
+    // Sweeps the rim of `cap` along its normal by `diameters` cap diameters
+    // into a straight tube and moves the cap to its end.
+    void extend(Cap& cap, double diameters)
+    {
+        std::vector<std::array<int32_t, 2>> rim;
+        std::vector<std::array<int32_t, 2>> edges;
+        for (size_t f = 0; f < mesh_.triangles.size(); ++f) {
+            if (mesh_.triangle_patch[f] != cap.patch) continue;
+            const Triangle& t = mesh_.triangles[f];
+            for (int k = 0; k < 3; ++k) edges.push_back({t[k], t[(k + 1) % 3]});
+        }
+        std::vector<std::array<int32_t, 2>> sorted = edges;
+        std::sort(sorted.begin(), sorted.end());
+        double perimeter = 0;
+        for (const auto& e : edges)
+            if (!std::binary_search(sorted.begin(), sorted.end(), std::array<int32_t, 2>{e[1], e[0]})) {
+                rim.push_back(e);
+                perimeter += distance(mesh_.points[e[0]], mesh_.points[e[1]]);
+            }
+        const double length = diameters * 2 * std::sqrt(cap.area / std::acos(-1.0));
+        const int steps = std::max(1, static_cast<int>(std::ceil(length / (perimeter / rim.size()))));
+        // Level k of each rim node, k = 0 the node itself.
+        std::unordered_map<int32_t, int32_t> level;
+        for (const auto& e : rim) level.emplace(e[0], e[0]);
+        for (int k = 1; k <= steps; ++k) {
+            const Vec3 shift = (length * k / steps) * cap.plane.normal;
+            std::unordered_map<int32_t, int32_t> upper;
+            for (const auto& [node, id] : level) {
+                upper[node] = static_cast<int32_t>(mesh_.points.size());
+                mesh_.points.push_back(mesh_.points[node] + shift);
+            }
+            // The wall face on rim edge a -> b runs b -> a; the new band runs a -> b below.
+            for (const auto& e : rim) {
+                const int32_t a0 = level[e[0]], b0 = level[e[1]], a1 = upper[e[0]], b1 = upper[e[1]];
+                mesh_.triangles.push_back({a0, b0, b1});
+                mesh_.triangles.push_back({a0, b1, a1});
+                mesh_.triangle_patch.insert(mesh_.triangle_patch.end(), {0, 0});
+            }
+            level = std::move(upper);
+        }
+        for (size_t f = 0; f < mesh_.triangles.size(); ++f) {
+            if (mesh_.triangle_patch[f] != cap.patch) continue;
+            for (int32_t& v : mesh_.triangles[f]) v = level.at(v);
+        }
+        cap.plane.point += length * cap.plane.normal;
+        cap.centroid += length * cap.plane.normal;
+    }
+
     // Drops points no triangle uses, keeping the order of the rest.
     void compact()
     {

@@ -47,6 +47,7 @@ struct OpeningSpec {
     double radius = 0;    // mm; 0: the plane must cross the lumen exactly once
     std::string side;     // border == true
     double inset = 0;     // mm, border openings
+    double extension = 0; // flow extension: length in diameters of the cap (2 sqrt(area / pi)); 0 = none
 };
 
 // The image's index-to-world map, x = origin + i a0 + j a1 + k a2, so that
@@ -74,6 +75,13 @@ struct CappedSurface {
 // opening in order and caps each crossing. A border opening becomes one cap
 // per separate piece of its cross-section, named "<name>_1", "<name>_2", ...
 // by decreasing area (just "<name>" when there is one piece).
+//
+// With `extension` > 0 the opening is then extruded along its normal by
+// that many cap diameters, as the paper did for the rat nose, so that inflow
+// can develop before the anatomy: the rim is swept in steps of about its
+// mean edge length into a straight tube (wall patch) and the cap moves to the
+// end of it (Cap::plane follows). The extrusion is not checked against the
+// rest of the anatomy: point it where nothing is in the way.
 //
 // Guarantees: the result is a closed, oriented 2-manifold; every vertex of a
 // cap face lies on its plane to round-off (it is projected onto it); the cap

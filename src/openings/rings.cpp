@@ -13,6 +13,9 @@ namespace scalemesh {
 
 namespace {
 
+// Largest tangential shift of a cap point, as a fraction of its spacing.
+constexpr double kTangentialShift = 0.1;
+
 // Ordered rim loops of the faces of `patch`: each directed boundary edge of
 // the patch, chained.
 std::vector<std::vector<int32_t>> patch_loops(const SurfaceMesh& surface, int32_t patch)
@@ -50,6 +53,17 @@ std::vector<std::vector<int32_t>> patch_loops(const SurfaceMesh& surface, int32_
         loops.push_back(std::move(loop));
     }
     return loops;
+}
+
+// A deterministic number in [-1, 1] for (generator, layer).
+double jitter(int32_t generator, int32_t layer)
+{
+    uint64_t z = (static_cast<uint64_t>(static_cast<uint32_t>(generator)) << 32 | static_cast<uint32_t>(layer)) +
+                 0x9e3779b97f4a7c15ull;
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    z ^= z >> 31;
+    return static_cast<double>(z >> 11) / static_cast<double>(1ull << 52) - 1.0;
 }
 
 double segment_distance(double px, double py, double ax, double ay, double bx, double by)
@@ -152,6 +166,18 @@ SurfaceMesh ring_caps(const SurfaceMesh& surface, const std::vector<Cap>& caps, 
                 }
             return best;
         };
+
+        // Points of neighbouring rim nodes at the same layer make isosceles
+        // trapezoids with them, four points on a circle, whose diagonal the
+        // volume stage's 3D Delaunay triangulation would choose by its own
+        // tie-break, not ours. A small tangential shift per point, fixed by
+        // (node, layer), makes every choice clear-cut.
+        std::vector<OffsetPoint> shifted = candidates;
+        for (OffsetPoint& p : shifted) {
+            const Vec3 tangent = normalized(cross(cap.plane.normal, sizing.normals[p.generator]));
+            p.position += kTangentialShift * p.spacing * jitter(p.generator, p.layer) * tangent;
+        }
+        candidates = std::move(shifted);
 
         std::vector<const OffsetPoint*> kept;
         for (const OffsetPoint& p : candidates) {

@@ -164,6 +164,32 @@ TEST(CutAndCap, RadiusPicksOneBranchOfTheBifurcation)
     EXPECT_TRUE(surface_facts(capped.surface).closed_manifold());
 }
 
+TEST(CutAndCap, FlowExtensionAddsAStraightTubeOfTheCapsSection)
+{
+    const SurfaceMesh tube = smoothed_phantom("tube", 0.5);
+    const CappedSurface plain =
+        cut_and_cap(tube, {plane_opening("outlet", OpeningType::Outlet, {0, 0, 12}, {0, 0, 1})}, {});
+    OpeningSpec spec = plane_opening("outlet", OpeningType::Outlet, {0, 0, 12}, {0, 0, 1});
+    spec.extension = 2.0;
+    const CappedSurface extended = cut_and_cap(tube, {spec}, {});
+    ASSERT_EQ(extended.caps.size(), 1u);
+    const Cap& cap = extended.caps[0];
+    const double length = 2.0 * 2 * std::sqrt(cap.area / kPi);
+    const SurfaceFacts facts = surface_facts(extended.surface);
+    EXPECT_TRUE(facts.closed_manifold());
+    EXPECT_EQ(facts.euler_characteristic, 2);
+    // A right prism of the cap polygon: its area times its length, exactly.
+    EXPECT_NEAR(facts.signed_volume - signed_volume(plain.surface), cap.area * length, 1e-9 * facts.signed_volume);
+    EXPECT_NEAR(cap.plane.point.z, 12 + length, 1e-9);
+    Vec3 lo, hi;
+    bounding_box(extended.surface, lo, hi);
+    EXPECT_NEAR(hi.z, 12 + length, 1e-9);
+    for (size_t f = 0; f < extended.surface.triangles.size(); ++f)
+        if (extended.surface.triangle_patch[f] == cap.patch)
+            for (int32_t v : extended.surface.triangles[f])
+                EXPECT_NEAR(extended.surface.points[v].z, 12 + length, 1e-9);
+}
+
 SizingParams tube_sizing()
 {
     SizingParams p;
