@@ -80,7 +80,36 @@ Check Criteria::merge(const HalfedgeMesh& mesh, const std::vector<double>& d, co
         return check;
     };
     if (distance(xi, xj) >= 0.5 * t) return reject(Verdict::too_long);
-    if (mesh.on_patch_boundary(i)) return reject(Verdict::patch_border);
+    // A rim node slides along the rim into a neighbour that stays put, so
+    // the rim keeps to its plane. The survivor must be an input point: a
+    // bisection midpoint lies inside a convex rim, and rims merged into
+    // such points would creep inwards cycle after cycle.
+    const int32_t patch_h = mesh.patch(HalfedgeMesh::face(h));
+    if (const int32_t border = mesh.border_edges(i); border > 0) {
+        if (border != 2 || !mesh.border_edge(h)) return reject(Verdict::patch_border);
+        if (!planar(patch_h) && !planar(mesh.patch(HalfedgeMesh::face(g)))) return reject(Verdict::patch_border);
+        if (j >= input_points_) return reject(Verdict::patch_border);
+        // The rim is a curve: its damage is how far the chord that replaces
+        // its two rim edges lies from the arc through x_i and its two rim
+        // neighbours (the sagitta), at least x_i's own distance from it.
+        // Repeated merges each move only a little, so x_i's distance alone
+        // would let chords grow without bound; and the wall triangles beside
+        // the rim can tilt far enough to hide either from eq. (A.1).
+        int32_t k = mesh.rotate(h);
+        while (!mesh.border_edge(k)) k = mesh.rotate(k);
+        const Vec3 xp = mesh.points[mesh.to(k)];
+        const Vec3 chord = xj - xp;
+        const double along = norm2(chord) > 0 ? std::clamp(dot(xi - xp, chord) / norm2(chord), 0.0, 1.0) : 0.0;
+        const double twice_area = norm(cross(xi - xp, xj - xp));
+        double sagitta = 0;
+        if (twice_area > 0) {
+            const double radius = distance(xi, xp) * distance(xi, xj) * norm(chord) / (2 * twice_area);
+            const double half = 0.5 * norm(chord);
+            sagitta = radius - std::sqrt(std::max(0.0, radius * radius - half * half));
+        }
+        check.damage = std::max(distance(xi, xp + along * chord), sagitta);
+        if (!(check.damage < check.toldamage)) return reject(Verdict::damage);
+    }
     if (!link_condition(mesh, h)) return reject(Verdict::topology);
 
     // The old fans of i and of j, and the triangles the merge changes: i's
@@ -88,16 +117,17 @@ Check Criteria::merge(const HalfedgeMesh& mesh, const std::vector<double>& d, co
     // A.1), and j's other triangles (changed only when j moves).
     changed_.clear();
     const double inf = std::numeric_limits<double>::infinity();
-    Vec3 fan_i{}, fan_j{};
+    Vec3 fan_i{}, fan_i_across{}, fan_j{};
     double old_min_i = inf, old_min_j = inf;
     int32_t k = h;
     do {
         const Vec3& b = mesh.points[mesh.to(k)];
         const Vec3& c = mesh.points[mesh.opposite(k)];
         const Vec3 cr = cross(b - xi, c - xi);
-        fan_i += cr;
+        const bool across = mesh.patch(HalfedgeMesh::face(k)) != patch_h;
+        (across ? fan_i_across : fan_i) += cr;
         old_min_i = std::min(old_min_i, inscribed_radius(xi, b, c, cr));
-        if (k != h && k != HalfedgeMesh::next(g)) changed_.push_back({b, c, true});
+        if (k != h && k != HalfedgeMesh::next(g)) changed_.push_back({b, c, true, across});
         k = mesh.rotate(k);
     } while (k != h);
     k = g;
@@ -108,7 +138,7 @@ Check Criteria::merge(const HalfedgeMesh& mesh, const std::vector<double>& d, co
         fan_j += cr;
         if (k != g && k != HalfedgeMesh::next(h)) {
             old_min_j = std::min(old_min_j, inscribed_radius(xj, b, c, cr));
-            changed_.push_back({b, c, false});
+            changed_.push_back({b, c, false, false});
         }
         k = mesh.rotate(k);
     } while (k != g);
@@ -125,7 +155,7 @@ Check Criteria::merge(const HalfedgeMesh& mesh, const std::vector<double>& d, co
         two_N += cross(tri.b - xj, tri.c - xj);
     }
     Vec3 shift{};
-    if (drift && !mesh.on_patch_boundary(j) && norm2(two_N) > 0)
+    if (drift && !held(mesh, j) && norm2(two_N) > 0)
         shift = (-six_dV / norm2(two_N)) * two_N; // -3 dV N / |N|^2, dV = six_dV / 6, N = two_N / 2
     const bool moves = !(shift == Vec3{});
     const Vec3 xn = xj + shift;
@@ -137,7 +167,7 @@ Check Criteria::merge(const HalfedgeMesh& mesh, const std::vector<double>& d, co
     // its height (all its moves so far included) over each triangle it spans.
     // Fold check (A.3): each new normal against the area-weighted patch
     // normal (A.2) of the fan the triangle came from.
-    const Vec3 patch_i = normalized(fan_i), patch_j = normalized(fan_j);
+    const Vec3 patch_i = normalized(fan_i), patch_i_across = normalized(fan_i_across), patch_j = normalized(fan_j);
     double damage = 0, new_min = inf;
     bool folded = false;
     for (const Tri& tri : changed_) {
@@ -149,10 +179,10 @@ Check Criteria::merge(const HalfedgeMesh& mesh, const std::vector<double>& d, co
         double height = std::abs(dot(total_shift, n));
         if (tri.from_i) height = std::max(height, std::abs(dot(xi - xn, n)));
         damage = std::max(damage, height);
-        folded |= dot(n, tri.from_i ? patch_i : patch_j) <= 0;
+        folded |= dot(n, !tri.from_i ? patch_j : tri.across ? patch_i_across : patch_i) <= 0;
         new_min = std::min(new_min, inscribed_radius(xn, tri.b, tri.c, cr));
     }
-    check.damage = damage;
+    check.damage = damage = std::max(damage, check.damage);
     if (!(damage < check.toldamage)) return reject(Verdict::damage);
     if (folded) return reject(Verdict::fold);
 

@@ -100,6 +100,19 @@ bool HalfedgeMesh::on_patch_boundary(int32_t v) const
     return false;
 }
 
+int32_t HalfedgeMesh::border_edges(int32_t v) const
+{
+    if (!has_patches_) return 0;
+    int32_t n = 0;
+    const int32_t start = out_[v];
+    int32_t h = start;
+    do {
+        n += border_edge(h);
+        h = rotate(h);
+    } while (h != start);
+    return n;
+}
+
 int32_t HalfedgeMesh::new_face(int32_t patch)
 {
     int32_t f;

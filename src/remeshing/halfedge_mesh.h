@@ -61,6 +61,12 @@ public:
     int32_t find_halfedge(int32_t a, int32_t b) const;
     // True when the faces around v do not all carry the same patch.
     bool on_patch_boundary(int32_t v) const;
+    // True when the two faces of h's edge carry different patches.
+    bool border_edge(int32_t h) const { return patch_[face(h)] != patch_[face(twin_[h])]; }
+    // The number of v's edges that are border edges: 0 inside a patch, 2 on
+    // a rim between two patches, 3 or more at a corner (or where a patch
+    // touches itself).
+    int32_t border_edges(int32_t v) const;
 
     // Algorithm 2's bisection: inserts a vertex at x on the edge of h and
     // splits both faces of the edge in two. Returns the new vertex id

@@ -4,11 +4,13 @@
 #include "core/errors.h"
 #include "remeshing/criteria.h"
 #include "remeshing/halfedge_mesh.h"
+#include "remeshing/volume_give_back.h"
 #include "smoothing/volume_conserving_smoothing.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <tuple>
 #include <utility>
@@ -28,6 +30,36 @@ using remeshing::Criteria;
 using remeshing::HalfedgeMesh;
 using remeshing::Verdict;
 
+// Every point of a flat patch's triangles must lie on one plane with the
+// patch's normal, to round-off of the surface's size.
+void validate_patch_planes(const SurfaceMesh& surface, const std::vector<Vec3>& normals)
+{
+    for (size_t p = 0; p < normals.size(); ++p)
+        if (!std::isfinite(normals[p].x) || !std::isfinite(normals[p].y) || !std::isfinite(normals[p].z))
+            throw InputError("remeshing: patch_normals[" + std::to_string(p) + "] is not finite",
+                             "give a plane normal for a flat patch, the zero vector for a curved one");
+    if (surface.triangle_patch.size() != surface.triangles.size() || normals.empty()) return;
+    Vec3 lo, hi;
+    bounding_box(surface, lo, hi);
+    const double tolerance = 1e-6 * norm(hi - lo);
+    std::vector<double> low(normals.size(), std::numeric_limits<double>::infinity());
+    std::vector<double> high(normals.size(), -std::numeric_limits<double>::infinity());
+    for (size_t f = 0; f < surface.triangles.size(); ++f) {
+        const int32_t p = surface.triangle_patch[f];
+        if (p < 0 || static_cast<size_t>(p) >= normals.size() || normals[p] == Vec3{}) continue;
+        for (int32_t v : surface.triangles[f]) {
+            const double height = dot(surface.points[v], normalized(normals[p]));
+            low[p] = std::min(low[p], height);
+            high[p] = std::max(high[p], height);
+        }
+    }
+    for (size_t p = 0; p < normals.size(); ++p)
+        if (high[p] - low[p] > tolerance)
+            throw InputError("remeshing: patch " + std::to_string(p) + " is given as flat, but its points lie " +
+                                 std::to_string(high[p] - low[p]) + " mm apart along its normal",
+                             "project the cap's points onto its plane, or give the zero normal for a curved patch");
+}
+
 void validate(const SurfaceMesh& surface, const std::vector<double>& d, const RemeshParams& params)
 {
     auto bad = [](const std::string& what, const std::string& hint) { throw InputError("remeshing: " + what, hint); };
@@ -45,6 +77,7 @@ void validate(const SurfaceMesh& surface, const std::vector<double>& d, const Re
         bad("sizing L_min and L_max are " + std::to_string(s.L_min) + " and " + std::to_string(s.L_max),
             "give finite lengths in mm with 0 < L_min <= L_max, as for the sizing stage");
     require_closed_manifold(surface, "the surface to remesh");
+    validate_patch_planes(surface, params.patch_normals);
     if (d.size() != surface.points.size())
         bad("d has " + std::to_string(d.size()) + " values for " + std::to_string(surface.points.size()) + " points",
             "pass compute_feature_size(surface, ...).d of this same surface");
@@ -72,6 +105,7 @@ public:
         // bisection would never end. A tenth of L_min is finer than any
         // feature the method resolves.
         for (double& v : d_) v = std::max(v, 0.1 * params.sizing.L_min);
+        criteria_.set_input_points(mesh_.vertex_capacity());
     }
 
     RemeshResult run()
@@ -186,73 +220,17 @@ private:
         return swaps;
     }
 
-    // Swaps (and merges into a node on a patch border, which stays put) cut
-    // a sliver off a convex region or add one to a concave one. Each node
-    // has kept count of the volume removed at it; that amount, spread over
-    // its 1-ring, becomes a move along the node's area normal (the volume
-    // gradient is a third of it), and one common factor, found by Newton's
-    // method, makes the enclosed volume the input's again. Returns the
-    // largest move (mm).
+    // Swaps (and merges into nodes that may not move) cut a sliver off a
+    // convex region or add one to a concave one; each node has kept count of
+    // the volume removed at it, and the free nodes give it back. Nodes on a
+    // patch border or a flat patch are not free: a move along their normal
+    // would take a rim or a cap off its plane.
     double restore_volume()
     {
-        const int32_t n = mesh_.vertex_capacity();
-        std::vector<Vec3> area(n); // the area vector N_v of each fan
-        for (int32_t f = 0; f < mesh_.face_capacity(); ++f) {
-            if (!mesh_.face_alive(f)) continue;
-            const int32_t a = mesh_.from(3 * f), b = mesh_.from(3 * f + 1), c = mesh_.from(3 * f + 2);
-            const Vec3 half = 0.5 * cross(mesh_.points[b] - mesh_.points[a], mesh_.points[c] - mesh_.points[a]);
-            area[a] += half, area[b] += half, area[c] += half;
-        }
-        // Offset length that restores lost_v at v alone, then its area-weighted
-        // mean over the 1-ring, so no single node carries a bump.
-        std::vector<double> offset(n, 0.0), spread(n, 0.0);
-        for (int32_t v = 0; v < n; ++v)
-            if (mesh_.vertex_alive(v) && norm(area[v]) > 0) offset[v] = 3 * lost_[v] / norm(area[v]);
-        for (int32_t v = 0; v < n; ++v) {
-            if (!mesh_.vertex_alive(v) || mesh_.on_patch_boundary(v)) continue;
-            double sum = norm(area[v]) * offset[v], weight = norm(area[v]);
-            const int32_t start = mesh_.outgoing(v);
-            int32_t h = start;
-            do {
-                const int32_t w = mesh_.to(h);
-                sum += norm(area[w]) * offset[w];
-                weight += norm(area[w]);
-                h = mesh_.rotate(h);
-            } while (h != start);
-            spread[v] = weight > 0 ? sum / weight : 0.0;
-        }
-        std::fill(lost_.begin(), lost_.end(), 0.0);
-
-        std::vector<Vec3> move(n), base(mesh_.points);
-        double slope = 0; // dV/ds at s = 0
-        for (int32_t v = 0; v < n; ++v) {
-            if (spread[v] == 0) continue;
-            move[v] = spread[v] * normalized(area[v]);
-            slope += dot(move[v], area[v]) / 3;
-        }
-        if (slope == 0) return 0;
-        double s = (volume_ - current_volume()) / slope;
-        for (int iteration = 0; iteration < 4; ++iteration) {
-            for (int32_t v = 0; v < n; ++v) mesh_.points[v] = base[v] + s * move[v];
-            const double error = current_volume() - volume_;
-            if (std::abs(error) <= 1e-13 * std::abs(volume_)) break;
-            s -= error / slope;
-        }
-        double largest = 0;
-        for (int32_t v = 0; v < n; ++v) largest = std::max(largest, std::abs(s) * norm(move[v]));
-        return largest;
-    }
-
-    double current_volume() const
-    {
-        double six_volume = 0;
-        for (int32_t f = 0; f < mesh_.face_capacity(); ++f) {
-            if (!mesh_.face_alive(f)) continue;
-            const Vec3 &a = mesh_.points[mesh_.from(3 * f)], &b = mesh_.points[mesh_.from(3 * f + 1)],
-                       &c = mesh_.points[mesh_.from(3 * f + 2)];
-            six_volume += dot(a, cross(b, c));
-        }
-        return six_volume / 6;
+        std::vector<char> held(mesh_.vertex_capacity(), 0);
+        for (int32_t v = 0; v < mesh_.vertex_capacity(); ++v)
+            held[v] = mesh_.vertex_alive(v) && criteria_.held(mesh_, v);
+        return remeshing::give_back_volume(mesh_, lost_, held, volume_);
     }
 
     // Algorithm 2: E = edges longer than the smaller bisection length K/M d
@@ -329,7 +307,8 @@ private:
     }
 
     // Algorithm 6's smoothing after each cycle. Patch borders stay put, so
-    // that caps keep their rims.
+    // that caps keep their rims, and nodes inside a flat patch move only in
+    // its plane.
     void smooth()
     {
         std::vector<int32_t> vertex_of_point;
@@ -339,6 +318,13 @@ private:
             constraint.fixed.resize(vertex_of_point.size());
             for (size_t p = 0; p < vertex_of_point.size(); ++p)
                 constraint.fixed[p] = mesh_.on_patch_boundary(vertex_of_point[p]);
+            if (!params_.patch_normals.empty()) {
+                constraint.plane_normal.resize(vertex_of_point.size());
+                for (size_t p = 0; p < vertex_of_point.size(); ++p) {
+                    const int32_t patch = mesh_.patch(HalfedgeMesh::face(mesh_.outgoing(vertex_of_point[p])));
+                    if (!constraint.fixed[p] && criteria_.planar(patch)) constraint.plane_normal[p] = params_.patch_normals[patch];
+                }
+            }
         }
         smooth_volume_conserving(surface, {params_.smoothing_sweeps, params_.smoothing_omega, params_.max_displacement},
                                  mesh_.has_patches() ? &constraint : nullptr);

@@ -27,6 +27,11 @@ struct RemeshParams {
     // surface loses a few percent of its volume at the paper's sizes, since
     // every merge there cuts a chord. false: the paper's merge, j stays put.
     bool conserve_volume = true;
+    // Per triangle patch id (SurfaceMesh::triangle_patch): the normal (any
+    // length) of the plane a flat patch lies in (an inlet or outlet cap,
+    // every point of its triangles on one plane), or the zero vector for a
+    // curved patch (the wall, patch 0). Ids past the end are curved.
+    std::vector<Vec3> patch_normals;
     SizingParams sizing; // recomputes the stable d on the final surface (section 2.1); L_min, L_max required
 };
 
@@ -80,15 +85,35 @@ struct RemeshResult {
 // Merges and swaps never change topology: a merge needs the link condition
 // (i and j share exactly the two neighbours opposite their edge) and leaves
 // every vertex with at least three neighbours; a swap never creates an edge
-// that exists. Points on a border between triangle patches are never merged
-// away, edges between patches never swapped, and smoothing keeps them fixed.
+// that exists.
+//
+// Patches (surface.triangle_patch, with params.patch_normals): every face
+// keeps its patch, and edges between patches are never swapped (swaps inside
+// a patch, flat or not, are). A node inside a patch may merge into any
+// neighbour, a wall node into a rim node too. A rim node (on the border
+// between exactly two patches, one of them flat, with exactly two border
+// edges) may merge into the neighbour along one of its border edges when
+// that neighbour is an input point, which stays put: the rim keeps to its
+// input polyline and to the cap's plane. The usual tests apply to the
+// triangles on both sides, the fold test against each side's own fan
+// normal, and the damage also counts the sagitta of the arc through the rim
+// node and its two rim neighbours over the chord that replaces them.
+// Corners (three or more patches), other border nodes and borders between
+// two curved patches are never merged away. With conserve_volume, nodes on
+// a border or inside a flat patch never make the volume-keeping moves (a
+// merge into them keeps the volume change, given back by the free nodes
+// nearby). Bisection splits rim and cap edges at their midpoints, on the
+// plane to round-off. Smoothing keeps border nodes fixed and moves nodes
+// inside a flat patch only within its plane.
 //
 // Guarantees: the result is a closed, oriented 2-manifold with the input's
-// Euler characteristic and component count; every accepted merge and swap has
-// damage below t/30 at its node; no edge is longer than t at the smaller d of
-// its ends after the last bisection (the last smoothing then moves nodes a
-// little); with conserve_volume the enclosed volume is the input's to
-// round-off. Deterministic for a given input.
+// Euler characteristic and component count, and every face on its input
+// patch; points of flat patches stay on their planes to round-off; every
+// accepted merge and swap has damage below t/30 at its node; no edge is
+// longer than t at the smaller d of its ends after the last bisection (the
+// last smoothing then moves nodes a little); with conserve_volume the
+// enclosed volume is the input's to round-off. Deterministic for a given
+// input.
 //
 // Coarsening stops where the next merge would exceed the damage limit, not
 // only at merge_length: where the surface bends with a radius near d/2 (a
@@ -102,7 +127,10 @@ struct RemeshResult {
 // when d does not hold one finite value >= 0 per point, or when a
 // parameter is out of range (K > 0, M >= 1, cycles >= 0, sweeps >= 0,
 // omega in (0, 1], max_displacement >= 0, sizing L_min/L_max as
-// compute_feature_size requires). Throws StageError if sizing fails.
+// compute_feature_size requires), when a patch normal is not finite, or
+// when the points of a patch given as flat lie farther than 1e-6 of the
+// bounding box diagonal from one plane with its normal. Throws StageError
+// if sizing fails.
 RemeshResult remesh_to_feature_size(const SurfaceMesh& surface, const std::vector<double>& d,
                                     const RemeshParams& params);
 
