@@ -7,6 +7,9 @@
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Triangulation_cell_base_with_info_3.h>
 #include <CGAL/Triangulation_vertex_base_with_info_3.h>
+#include <CGAL/property_map.h>
+#include <CGAL/spatial_sort.h>
+#include <CGAL/Spatial_sort_traits_adapter_3.h>
 
 #include <algorithm>
 #include <chrono>
@@ -19,7 +22,20 @@ namespace {
 
 using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Vb = CGAL::Triangulation_vertex_base_with_info_3<int32_t, Kernel>;
-using Cb = CGAL::Triangulation_cell_base_with_info_3<int8_t, Kernel, CGAL::Delaunay_triangulation_cell_base_3<Kernel>>;
+// Sides of the cells. The cells an insertion makes get the default side,
+// inside: every insertion happens inside the surface (see try_insert).
+constexpr int8_t kInside = 0, kOutside = 1, kUnknown = -1;
+struct CellSide {
+    int8_t value = kInside;
+    CellSide& operator=(int8_t v)
+    {
+        value = v;
+        return *this;
+    }
+    operator int8_t() const { return value; }
+};
+
+using Cb = CGAL::Triangulation_cell_base_with_info_3<CellSide, Kernel, CGAL::Delaunay_triangulation_cell_base_3<Kernel>>;
 using Tds = CGAL::Triangulation_data_structure_3<Vb, Cb>;
 using Delaunay = CGAL::Delaunay_triangulation_3<Kernel, Tds>;
 using Point = Kernel::Point_3;
@@ -53,7 +69,7 @@ struct TriangleKeyHash {
     }
 };
 
-enum class Verdict { inserted, small, filler, surface, other };
+enum class Verdict { inserted, small, filler, hidden, outside };
 
 // Holds the triangulation and the surface while points are inserted.
 class ConditionalDelaunay {
@@ -65,9 +81,13 @@ public:
         for (const auto& e : params.protected_edges) protected_edges_.insert(edge_key(e[0], e[1]));
         barrier_.reserve(surface.triangles.size());
         for (const Triangle& tri : surface.triangles) barrier_.emplace(make_key(tri[0], tri[1], tri[2]), tri);
+        stamp_.assign(static_cast<size_t>(n_) + points.size(), 0);
     }
 
-    void insert_surface()
+    // The Delaunay triangulation of the surface points, its quads and the
+    // sides of its cells. False when a surface triangle is missing (listed
+    // in result.missing_triangles).
+    bool insert_surface(InsertionResult& result)
     {
         std::vector<std::pair<Point, int32_t>> input;
         input.reserve(n_);
@@ -82,16 +102,91 @@ public:
         surface_vertex_.resize(n_);
         for (auto v = dt_.finite_vertices_begin(); v != dt_.finite_vertices_end(); ++v) surface_vertex_[v->info()] = v;
         find_quads();
+        classify_sides(result);
+        return result.missing_triangles.empty();
     }
 
+    // Algorithm 5: layer by layer, `passes` times over the points not yet
+    // inserted. Each layer is spatially sorted (Hilbert order on random
+    // rounds) and every walk starts from the previous point's cell, so a
+    // point is found in a few steps.
+    void insert_layers(InsertionResult& result)
+    {
+        int max_layer = 0;
+        for (const OffsetPoint& p : points_) max_layer = std::max(max_layer, p.layer);
+        std::vector<std::vector<std::size_t>> by_layer(max_layer + 1);
+        for (size_t k = 0; k < points_.size(); ++k) by_layer[points_[k].layer].push_back(k);
+        std::vector<Point> positions;
+        positions.reserve(points_.size());
+        for (const OffsetPoint& p : points_) positions.push_back(to_point(p.position));
+        using Traits = CGAL::Spatial_sort_traits_adapter_3<Kernel, CGAL::Pointer_property_map<Point>::type>;
+        const Traits traits(CGAL::make_property_map(positions));
+        for (auto& layer : by_layer) CGAL::spatial_sort(layer.begin(), layer.end(), traits);
+
+        hint_ = dt_.infinite_vertex()->cell();
+        verdict_.assign(points_.size(), Verdict::outside);
+        std::vector<char> done(points_.size(), 0);
+        for (int pass = 0; pass < std::max(1, params_.passes); ++pass) {
+            bool any = false;
+            for (int m = 1; m <= max_layer; ++m)
+                for (std::size_t k : by_layer[m]) {
+                    if (done[k]) continue;
+                    verdict_[k] = try_insert(static_cast<int32_t>(k), positions[k]);
+                    if (verdict_[k] == Verdict::inserted) done[k] = 1, any = true;
+                }
+            if (!any) break;
+        }
+        for (Verdict v : verdict_) {
+            result.inserted += v == Verdict::inserted;
+            result.rejected_small += v == Verdict::small;
+            result.rejected_filler += v == Verdict::filler;
+            result.rejected_surface += v == Verdict::hidden;
+            result.rejected_other += v == Verdict::outside;
+        }
+    }
+
+    // The inside cells as output.
+    void output(InsertionResult& result)
+    {
+        result.quads = quads_;
+        result.points.assign(surface_.points.begin(), surface_.points.end());
+        result.source.resize(n_);
+        for (int32_t i = 0; i < n_; ++i) result.source[i] = i;
+        std::vector<int32_t> index(points_.size(), -1); // offset point -> output point
+        result.tets.reserve(dt_.number_of_finite_cells() / 2);
+        int64_t used = 0;
+        for (auto c = dt_.finite_cells_begin(); c != dt_.finite_cells_end(); ++c) {
+            if (c->info() != kInside) continue;
+            Tet tet;
+            for (int i = 0; i < 4; ++i) {
+                const int32_t id = c->vertex(i)->info();
+                if (id < n_) {
+                    tet[i] = id;
+                    continue;
+                }
+                int32_t& out = index[id - n_];
+                if (out < 0) {
+                    out = static_cast<int32_t>(result.points.size());
+                    result.points.push_back(points_[id - n_].position);
+                    result.source.push_back(id);
+                    ++used;
+                }
+                tet[i] = out;
+            }
+            result.tets.push_back(tet); // CGAL cells are positively oriented
+        }
+        result.unused = result.inserted - used;
+    }
+
+private:
     // A surface quad (a, b, c, d) split along (a, c) whose four points are
     // (nearly) cospherical often comes out of the Delaunay triangulation split
     // along (b, d) instead. Such a pair of triangles cannot appear later (an
     // insertion never creates a facet between old vertices), so the stage
     // takes the Delaunay facets (a, b, d) and (b, c, d) as stand-ins: they
-    // separate inside from outside like the quad, are protected like surface
-    // triangles, and the tets at (b, d) on the inner side are re-triangulated
-    // onto the quad afterwards (repair_surface_quads).
+    // separate inside from outside like the quad, bound every cavity like
+    // surface triangles, and the tets at (b, d) on the inner side are
+    // re-triangulated onto the quad afterwards (repair_surface_quads).
     void find_quads()
     {
         std::vector<int32_t> missing;
@@ -101,10 +196,10 @@ public:
                 missing.push_back(static_cast<int32_t>(t));
         }
         std::unordered_map<uint64_t, int32_t> missing_edge; // directed edge -> missing triangle
-        auto edge_key = [](int32_t u, int32_t v) { return (uint64_t(uint32_t(u)) << 32) | uint32_t(v); };
+        auto directed = [](int32_t u, int32_t v) { return (uint64_t(uint32_t(u)) << 32) | uint32_t(v); };
         for (int32_t t : missing)
             for (int e = 0; e < 3; ++e)
-                missing_edge[edge_key(surface_.triangles[t][e], surface_.triangles[t][(e + 1) % 3])] = t;
+                missing_edge[directed(surface_.triangles[t][e], surface_.triangles[t][(e + 1) % 3])] = t;
         std::vector<char> used(surface_.triangles.size(), 0);
         for (int32_t t : missing) {
             if (used[t]) continue;
@@ -112,7 +207,7 @@ public:
             for (int e = 0; e < 3; ++e) {
                 // tri = (a, b, c) with the shared edge c -> a; the other triangle has a -> c.
                 const int32_t a = tri[(e + 2) % 3], b = tri[e], c = tri[(e + 1) % 3];
-                const auto it = missing_edge.find(edge_key(a, c));
+                const auto it = missing_edge.find(directed(a, c));
                 if (it == missing_edge.end() || used[it->second]) continue;
                 const Triangle& other = surface_.triangles[it->second];
                 int32_t d = -1;
@@ -131,41 +226,15 @@ public:
         }
     }
 
-    // Algorithm 5: layer by layer, node by node, `passes` times over the
-    // points not yet inserted.
-    void insert_layers(InsertionResult& result)
+    // The sides, exactly and without coordinates: every surface triangle
+    // (or quad stand-in) that is a facet separates an inner from an outer
+    // cell, by the exact orientation of its outward normal against the
+    // opposite vertex, and a flood fill through the other facets carries the
+    // side to every cell; the infinite cells are outside.
+    void classify_sides(InsertionResult& result)
     {
-        int max_layer = 0;
-        for (const OffsetPoint& p : points_) max_layer = std::max(max_layer, p.layer);
-        std::vector<std::vector<int32_t>> by_layer(max_layer + 1);
-        for (size_t k = 0; k < points_.size(); ++k) by_layer[points_[k].layer].push_back(static_cast<int32_t>(k));
-
-        verdict_.assign(points_.size(), Verdict::other);
-        std::vector<char> done(points_.size(), 0);
-        for (int pass = 0; pass < std::max(1, params_.passes); ++pass) {
-            bool any = false;
-            for (int m = 1; m <= max_layer; ++m)
-                for (int32_t k : by_layer[m]) {
-                    if (done[k]) continue;
-                    verdict_[k] = try_insert(k);
-                    if (verdict_[k] == Verdict::inserted) done[k] = 1, any = true;
-                }
-            if (!any) break;
-        }
-        for (Verdict v : verdict_) {
-            result.inserted += v == Verdict::inserted;
-            result.rejected_small += v == Verdict::small;
-            result.rejected_filler += v == Verdict::filler;
-            result.rejected_surface += v == Verdict::surface;
-            result.rejected_other += v == Verdict::other;
-        }
-    }
-
-    // Exterior removal by the sides of the surface triangles, then the output.
-    void classify(InsertionResult& result)
-    {
-        for (auto c = dt_.all_cells_begin(); c != dt_.all_cells_end(); ++c) c->info() = dt_.is_infinite(c) ? 0 : -1;
-
+        for (auto c = dt_.all_cells_begin(); c != dt_.all_cells_end(); ++c)
+            c->info() = dt_.is_infinite(c) ? kOutside : kUnknown;
         std::vector<Cell_handle> stack;
         std::vector<char> in_quad(n_, 0);
         for (const auto& q : quads_)
@@ -185,46 +254,23 @@ public:
                     result.missing_triangles.push_back(quad_triangles_[i].second);
                 }
         }
-        result.quads = quads_;
         while (!stack.empty()) {
             const Cell_handle c = stack.back();
             stack.pop_back();
             for (int i = 0; i < 4; ++i) {
                 if (is_surface_facet(c, i)) continue;
                 const Cell_handle nb = c->neighbor(i);
-                if (nb->info() == -1) {
+                if (nb->info() == kUnknown) {
                     nb->info() = c->info();
                     stack.push_back(nb);
                 }
             }
         }
-
-        result.points.assign(surface_.points.begin(), surface_.points.end());
-        result.source.resize(n_);
-        for (int32_t i = 0; i < n_; ++i) result.source[i] = i;
-        std::unordered_map<int32_t, int32_t> index; // triangulation info -> output point
-        for (auto c = dt_.finite_cells_begin(); c != dt_.finite_cells_end(); ++c) {
-            if (c->info() != 1) continue;
-            Tet tet;
-            for (int i = 0; i < 4; ++i) {
-                const int32_t id = c->vertex(i)->info();
-                if (id < n_) {
-                    tet[i] = id;
-                    continue;
-                }
-                auto [it, fresh] = index.emplace(id, static_cast<int32_t>(result.points.size()));
-                if (fresh) {
-                    result.points.push_back(points_[id - n_].position);
-                    result.source.push_back(id);
-                }
-                tet[i] = it->second;
-            }
-            result.tets.push_back(tet); // CGAL cells are positively oriented
-        }
-        result.unused = result.inserted - static_cast<int64_t>(index.size());
+        // Cells no seed reaches touch no surface triangle: outside.
+        for (auto c = dt_.all_cells_begin(); c != dt_.all_cells_end(); ++c)
+            if (c->info() == kUnknown) c->info() = kOutside;
     }
 
-private:
     bool has_facet(Vertex_handle a, Vertex_handle b, Vertex_handle c) const
     {
         Cell_handle cell;
@@ -250,19 +296,19 @@ private:
             return false;
         const int l = 6 - i - j - k;
         const Cell_handle other = c->neighbor(l);
-        int8_t side_c = 0;
+        int8_t side_c = kOutside;
         if (!dt_.is_infinite(c)) {
             // The opposite vertex is inside exactly when (a, b, c, q) is negatively oriented.
             const auto o = CGAL::orientation(to_point(surface_.points[tri[0]]), to_point(surface_.points[tri[1]]),
                                              to_point(surface_.points[tri[2]]), c->vertex(l)->point());
-            side_c = o == CGAL::NEGATIVE ? 1 : 0;
+            side_c = o == CGAL::NEGATIVE ? kInside : kOutside;
         }
-        return assign(c, side_c, stack) && assign(other, int8_t(1 - side_c), stack);
+        return assign(c, side_c, stack) && assign(other, side_c == kInside ? kOutside : kInside, stack);
     }
 
     bool assign(Cell_handle c, int8_t side, std::vector<Cell_handle>& stack)
     {
-        if (c->info() == -1) {
+        if (c->info() == kUnknown) {
             c->info() = side;
             stack.push_back(c);
             return true;
@@ -283,65 +329,163 @@ private:
         return barrier_.count(make_key(v[0], v[1], v[2])) != 0;
     }
 
-    // The conditions of Algorithm 5 on the conflict cavity of point k:
-    // (i) no new tet (k joined to a boundary facet of the cavity) with volume
-    //     below min_volume_fraction * spacing^3: such a tet is a sliver the
-    //     flips could not repair and a sign of a point that duplicates another;
-    // (ii) a filler point joins no surface point (paper section 2.3);
-    // and, with protect_surface, no surface triangle that is a facet now is
-    // inside the cavity. A Delaunay insertion never creates a facet between
-    // old vertices, so a surface triangle destroyed here would stay missing
-    // for good; refusing the point instead keeps the surface conforming from
-    // the surface-only triangulation onwards, which is what the paper's
-    // topology check and local refinement establish after the fact.
-    Verdict try_insert(int32_t k)
+    // Algorithm 5 for point k, with the insertion cavity confined to the
+    // inside: the cells whose circumspheres hold the point, reached from
+    // the cell that contains it without crossing the surface. A Delaunay
+    // cavity that crossed a surface triangle would destroy it for good (an
+    // insertion never makes a facet between old vertices); confined, the
+    // surface stays a set of facets. Where the conflicts reach through the
+    // surface (near-cospherical surface points, flat outer slivers) the
+    // outer cells simply stay as they are.
+    //
+    // The cavity must be star-shaped from the point, and (i) no new tet
+    // (the point joined to a boundary facet of the cavity) may have a volume
+    // below min_volume_fraction * spacing^3 (a sliver the flips could not
+    // repair). A cell whose boundary facet breaks either is taken out of the
+    // cavity, with whatever then hangs on it only through it, until the
+    // cavity is good; the point is refused when that would take out the
+    // cell holding it. Such a cell stays though the point is in its
+    // circumsphere: the inside is then no longer exactly Delaunay, which
+    // the flips of section 2.4 are there to repair. A new tet holding a
+    // protected quad diagonal is kept out the same way. Refused as well: a
+    // point outside the surface or on a vertex; a cavity that would swallow
+    // a vertex; (ii) a filler point that would join a surface point (paper
+    // section 2.3).
+    Verdict try_insert(int32_t k, const Point& p)
     {
         const OffsetPoint& op = points_[k];
-        const Point p = to_point(op.position);
         Delaunay::Locate_type lt;
         int li, lj;
         const Cell_handle c = dt_.locate(p, lt, li, lj, hint_);
-        if (lt == Delaunay::VERTEX || lt == Delaunay::OUTSIDE_CONVEX_HULL || lt == Delaunay::OUTSIDE_AFFINE_HULL)
-            return Verdict::other;
+        hint_ = c;
+        if (lt == Delaunay::VERTEX || lt == Delaunay::OUTSIDE_CONVEX_HULL || lt == Delaunay::OUTSIDE_AFFINE_HULL ||
+            c->info() != kInside)
+            return Verdict::outside;
 
-        boundary_.clear();
+        // Breadth-first over the conflicting inside cells, marked in
+        // conflict; the cells tested and found not in conflict are marked on
+        // boundary until the search is over.
         cells_.clear();
-        internal_.clear();
-        dt_.find_conflicts(p, c, std::back_inserter(boundary_), std::back_inserter(cells_),
-                           std::back_inserter(internal_));
-
-        if (params_.protect_surface)
-            for (const Facet& f : internal_)
-                if (is_surface_facet(f.first, f.second)) return Verdict::surface;
+        touched_.clear();
+        c->tds_data().mark_in_conflict();
+        cells_.push_back(c);
+        for (size_t i = 0; i < cells_.size(); ++i) {
+            const Cell_handle cc = cells_[i];
+            for (int j = 0; j < 4; ++j) {
+                const Cell_handle nb = cc->neighbor(j);
+                if (!nb->tds_data().is_clear()) continue;
+                if (nb->info() == kInside && dt_.side_of_sphere(nb, p, true) == CGAL::ON_BOUNDED_SIDE) {
+                    nb->tds_data().mark_in_conflict();
+                    cells_.push_back(nb);
+                } else {
+                    nb->tds_data().mark_on_boundary();
+                    touched_.push_back(nb);
+                }
+            }
+        }
+        for (const Cell_handle& t : touched_) t->tds_data().clear();
 
         const double limit = 6.0 * params_.min_volume_fraction * op.spacing * op.spacing * op.spacing;
-        for (const Facet& f : boundary_) {
-            const Cell_handle fc = f.first;
-            Vec3 v[3];
-            int32_t ids[3];
-            bool finite = true;
-            int j = 0;
-            for (int i = 0; i < 4; ++i) {
-                if (i == f.second) continue;
-                const Vertex_handle vh = fc->vertex(i);
-                if (dt_.is_infinite(vh)) {
-                    finite = false;
-                    break;
-                }
-                if (op.filler && vh->info() < n_) return Verdict::filler;
-                const Point& q = vh->point();
-                ids[j] = vh->info();
-                v[j++] = {q.x(), q.y(), q.z()};
+        Verdict verdict = Verdict::inserted;
+        for (int round = 0;; ++round) {
+            const bool shrunk = shrink_cavity(p, c, limit, verdict);
+            if (verdict != Verdict::inserted) break;
+            if (!shrunk) {
+                verdict = check_cavity(op);
+                break;
             }
-            if (!finite) continue;
-            if (touches_protected_edge(ids)) return Verdict::surface;
-            if (std::abs(tet_volume6(v[0], v[1], v[2], op.position)) < limit) return Verdict::small;
+            if (round == 32) {
+                verdict = Verdict::hidden;
+                break;
+            }
         }
-
+        if (verdict != Verdict::inserted) {
+            for (const Cell_handle& t : cells_) t->tds_data().clear();
+            return verdict;
+        }
         const Vertex_handle v =
             dt_.insert_in_hole(p, cells_.begin(), cells_.end(), boundary_.front().first, boundary_.front().second);
         v->info() = n_ + k;
         hint_ = v->cell();
+        return Verdict::inserted;
+    }
+
+    // One round of cavity shrinking: collects the boundary facets, takes out
+    // the cells with a facet the point does not strictly see, that makes a
+    // tet below `limit` (6 V) or one with a protected edge, and keeps the part still connected to the
+    // cell `start` that holds the point. True when cells were taken out;
+    // `verdict` turns to a refusal when `start` itself would go.
+    bool shrink_cavity(const Point& p, Cell_handle start, double limit, Verdict& verdict)
+    {
+        boundary_.clear();
+        removed_.clear();
+        for (const Cell_handle& cc : cells_) {
+            bool bad = false;
+            for (int j = 0; j < 4; ++j) {
+                if (cc->neighbor(j)->tds_data().is_in_conflict()) continue;
+                boundary_.emplace_back(cc, j);
+                if (bad) continue;
+                const Point* q[4];
+                int32_t ids[3], n = 0;
+                for (int i = 0; i < 4; ++i) {
+                    q[i] = i == j ? &p : &cc->vertex(i)->point();
+                    if (i != j) ids[n++] = cc->vertex(i)->info();
+                }
+                if (touches_protected_edge(ids)) {
+                    bad = true;
+                    continue;
+                }
+                const double v6 = tet_volume6({q[0]->x(), q[0]->y(), q[0]->z()}, {q[1]->x(), q[1]->y(), q[1]->z()},
+                                              {q[2]->x(), q[2]->y(), q[2]->z()}, {q[3]->x(), q[3]->y(), q[3]->z()});
+                // Above a positive limit the sign of v6 is beyond round-off;
+                // without one, the exact predicate decides.
+                bad = v6 < limit || (limit <= 0 && CGAL::orientation(*q[0], *q[1], *q[2], *q[3]) != CGAL::POSITIVE);
+            }
+            if (bad) removed_.push_back(cc);
+        }
+        if (removed_.empty()) return false;
+        for (const Cell_handle& cc : removed_) {
+            if (cc == start) {
+                verdict = Verdict::hidden;
+                return true;
+            }
+            cc->tds_data().clear();
+        }
+        // The part connected to start, found by re-marking it on boundary.
+        size_t kept = 0;
+        start->tds_data().mark_on_boundary();
+        std::swap(cells_, scratch_);
+        cells_.clear();
+        cells_.push_back(start);
+        for (size_t i = 0; i < cells_.size(); ++i)
+            for (int j = 0; j < 4; ++j) {
+                const Cell_handle nb = cells_[i]->neighbor(j);
+                if (!nb->tds_data().is_in_conflict()) continue;
+                nb->tds_data().mark_on_boundary();
+                cells_.push_back(nb);
+            }
+        for (const Cell_handle& cc : scratch_)
+            if (cc->tds_data().is_in_conflict()) cc->tds_data().clear(); // cut off
+        for (const Cell_handle& cc : cells_) cc->tds_data().mark_in_conflict(), ++kept;
+        return kept > 0;
+    }
+
+    // The refusals that no shrinking cures, on the final cavity.
+    Verdict check_cavity(const OffsetPoint& op)
+    {
+        ++stamp_value_;
+        for (const Facet& f : boundary_) {
+            int32_t ids[3], j = 0;
+            for (int i = 0; i < 4; ++i) {
+                if (i == f.second) continue;
+                ids[j] = f.first->vertex(i)->info();
+                stamp_[ids[j++]] = stamp_value_;
+            }
+            if (op.filler && (ids[0] < n_ || ids[1] < n_ || ids[2] < n_)) return Verdict::filler;
+        }
+        for (const Cell_handle& cc : cells_)
+            for (int i = 0; i < 4; ++i)
+                if (stamp_[cc->vertex(i)->info()] != stamp_value_) return Verdict::hidden;
         return Verdict::inserted;
     }
 
@@ -372,9 +516,11 @@ private:
     std::vector<std::array<int32_t, 4>> quads_;
     std::vector<std::pair<int32_t, int32_t>> quad_triangles_;
     std::vector<Verdict> verdict_;
+    std::vector<uint32_t> stamp_; // per point id: last check_cavity that saw it on the cavity boundary
+    uint32_t stamp_value_ = 0;
     Cell_handle hint_;
-    std::vector<Facet> boundary_, internal_;
-    std::vector<Cell_handle> cells_;
+    std::vector<Facet> boundary_;
+    std::vector<Cell_handle> cells_, touched_, removed_, scratch_;
 };
 
 } // namespace
@@ -385,12 +531,15 @@ InsertionResult insert_and_classify(const SurfaceMesh& surface, const std::vecto
     InsertionResult result;
     ConditionalDelaunay cd(surface, points, params);
     auto t0 = Clock::now();
-    cd.insert_surface();
+    const bool conforming = cd.insert_surface(result);
+    result.seconds_classify = seconds_since(t0);
+    if (!conforming) return result;
+    t0 = Clock::now();
     cd.insert_layers(result);
     result.seconds_insertion = seconds_since(t0);
     t0 = Clock::now();
-    cd.classify(result);
-    result.seconds_classify = seconds_since(t0);
+    cd.output(result);
+    result.seconds_classify += seconds_since(t0);
     return result;
 }
 

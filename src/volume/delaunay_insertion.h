@@ -14,10 +14,9 @@ namespace scalemesh {
 
 struct InsertionParams {
     int passes = 3;                    // passes over the not yet inserted points, >= 1
-    double min_volume_fraction = 1e-3; // (i): reject when a new tet is below this fraction of spacing^3
-    bool protect_surface = true;       // reject a point whose cavity holds a surface triangle facet
-    std::vector<std::array<int32_t, 2>> protected_edges; // surface-point pairs no new tet may contain
-                                                         // (the diagonals of quads that failed a repair)
+    double min_volume_fraction = 1e-3; // (i): no new tet below this fraction of spacing^3 (cavity shrunk)
+    std::vector<std::array<int32_t, 2>> protected_edges; // surface-point pairs no new tet may contain (the
+                                                         // cavity is shrunk; diagonals of failed quads)
 };
 
 struct InsertionResult {
@@ -27,23 +26,26 @@ struct InsertionResult {
     std::vector<int32_t> missing_triangles; // surface triangles that are not facets, or whose sides clash
     std::vector<std::array<int32_t, 4>> quads; // surface quads (a, b, c, d), triangles (a, b, c) and (a, c, d),
                                                // meshed through their stand-ins (a, b, d) and (b, c, d)
-    int64_t inserted = 0, rejected_small = 0, rejected_filler = 0, rejected_surface = 0, rejected_other = 0;
+    int64_t inserted = 0, rejected_small = 0, rejected_filler = 0;
+    int64_t rejected_surface = 0; // the point does not see a surface triangle bounding its cavity
+    int64_t rejected_other = 0;   // outside the surface or on a vertex
     int64_t unused = 0; // inserted interior points with no inside cell
     double seconds_insertion = 0, seconds_classify = 0;
 };
 
-// Inserts the surface points (spatially sorted), then the offset points layer
-// by layer with the conditions of Algorithm 5 (see the .cpp), `passes` times,
-// and keeps the finite cells on the inner side of the surface. The sides are
-// found exactly, without coordinates: every surface triangle that is a facet
+// Inserts the surface points (spatially sorted), finds the sides of the
+// cells exactly, without coordinates: every surface triangle that is a facet
 // separates an inner from an outer cell (by the exact orientation of its
 // outward normal against the opposite vertex), and a flood fill through the
 // other facets carries the side to every cell; the infinite cells are
-// outside. Quads of two surface triangles that the Delaunay triangulation
+// outside. Then inserts the offset points layer by layer (each layer
+// spatially sorted) with the conditions of Algorithm 5, `passes` times, each
+// insertion cavity confined to the inside so that the surface triangles stay
+// facets (see the .cpp), and returns the inside cells. Quads of two surface triangles that the Delaunay triangulation
 // splits along the other diagonal are listed in `quads`; `tets` are then
 // bounded by their stand-in triangles (a, b, d), (b, c, d), to be repaired
 // by repair_surface_quads. When another surface triangle is missing the
-// result lists it and `tets` is not meaningful. Throws InputError when two surface points coincide.
+// result lists it, no point is inserted and `tets` is empty. Throws InputError when two surface points coincide.
 InsertionResult insert_and_classify(const SurfaceMesh& surface, const std::vector<OffsetPoint>& points,
                                     const InsertionParams& params);
 

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <set>
 #include <vector>
 
 namespace scalemesh {
@@ -21,6 +22,10 @@ public:
     explicit TetEditor(TetMesh& mesh) : mesh_(mesh), tets_(mesh.tets), incident_(mesh.points.size())
     {
         alive_.assign(tets_.size(), 1);
+        std::vector<int32_t> degree(mesh.points.size(), 0);
+        for (const Tet& t : tets_)
+            for (int32_t v : t) ++degree[v];
+        for (size_t v = 0; v < degree.size(); ++v) incident_[v].reserve(degree[v] + 4);
         for (size_t t = 0; t < tets_.size(); ++t)
             for (int32_t v : tets_[t]) incident_[v].push_back(static_cast<int32_t>(t));
     }
@@ -41,6 +46,18 @@ public:
     const Tet& tet(int32_t t) const { return tets_[t]; }
     const Vec3& point(int32_t v) const { return mesh_.points[v]; }
     Vec3& point(int32_t v) { return mesh_.points[v]; }
+    // Removes the point add_point made last (before any tet uses it).
+    void drop_last_point()
+    {
+        mesh_.points.pop_back();
+        incident_.pop_back();
+    }
+    int32_t add_point(const Vec3& x)
+    {
+        mesh_.points.push_back(x);
+        incident_.emplace_back();
+        return static_cast<int32_t>(mesh_.points.size() - 1);
+    }
 
     // Living tets at v (compacts v's list on the way).
     const std::vector<int32_t>& at(int32_t v)
@@ -56,6 +73,14 @@ public:
         for (int32_t t : at(a))
             if (contains(tets_[t], b)) result.push_back(t);
         return result;
+    }
+
+    // Number of living tets at the edge (a, b).
+    int edge_degree(int32_t a, int32_t b)
+    {
+        int count = 0;
+        for (int32_t t : at(a)) count += contains(tets_[t], b);
+        return count;
     }
 
     bool has_edge(int32_t a, int32_t b)
@@ -190,6 +215,8 @@ private:
 
     bool flip_edge(int32_t a, int32_t b, FlipCounts& counts)
     {
+        const int degree = ed_.edge_degree(a, b);
+        if (degree != 3 && degree != 4) return false;
         const std::vector<int32_t> around = ed_.around_edge(a, b);
         if (around.size() != 3 && around.size() != 4) return false;
         const std::vector<int32_t> c = ring(a, b, around);
@@ -321,6 +348,163 @@ bool smooth_point(TetEditor& ed, int32_t v)
     return !(best_position == origin);
 }
 
+// Edge removal for a quad repair: triangulates the polygon `ring` (open
+// chain from ring.front() to ring.back(), closed by that pair) so that every
+// triangle t gives positive tets (b, t) with orientation `sign` and (d, t)
+// with the opposite one, maximising the smallest aspect ratio (dynamic
+// programming over sub-polygons, cubic in the ring length). Diagonals that
+// already are mesh edges are not used. Returns that smallest aspect ratio,
+// or 0 when no triangulation qualifies; `out` gets the tets.
+double triangulate_ring(TetEditor& ed, const std::vector<int32_t>& ring, int32_t b, int32_t d, int sign, double floor6,
+                        std::vector<Tet>& out)
+{
+    const int m = static_cast<int>(ring.size());
+    auto cone = [&](int32_t tip, int i, int l, int j, int want, Tet& tet) {
+        double v6 = 0;
+        tet = oriented(ed, tip, ring[i], ring[l], ring[j], v6);
+        const int s = tet[1] == ring[i] ? 1 : -1;
+        if (s != want || !(v6 > floor6)) return 0.0;
+        return ed.aspect(tet);
+    };
+    std::vector<char> usable(m * m, 1); // diagonal (i, j) not already an edge
+    for (int i = 0; i < m; ++i)
+        for (int j = i + 2; j < m; ++j)
+            if (!(i == 0 && j == m - 1)) usable[i * m + j] = !ed.has_edge(ring[i], ring[j]);
+    std::vector<double> best(m * m, 0.0);
+    std::vector<int> split(m * m, -1);
+    for (int i = 0; i + 1 < m; ++i) best[i * m + i + 1] = 1e300;
+    for (int len = 2; len < m; ++len)
+        for (int i = 0; i + len < m; ++i) {
+            const int j = i + len;
+            if (!usable[i * m + j]) continue;
+            for (int l = i + 1; l < j; ++l) {
+                const double inner = std::min(best[i * m + l], best[l * m + j]);
+                if (!(inner > best[i * m + j])) continue;
+                Tet tb, td;
+                const double q = std::min({inner, cone(b, i, l, j, sign, tb), cone(d, i, l, j, -sign, td)});
+                if (q > best[i * m + j]) best[i * m + j] = q, split[i * m + j] = l;
+            }
+        }
+    if (!(best[m - 1] > 0)) return 0.0;
+    out.clear();
+    std::vector<std::pair<int, int>> stack{{0, m - 1}};
+    while (!stack.empty()) {
+        const auto [i, j] = stack.back();
+        stack.pop_back();
+        if (j - i < 2) continue;
+        const int l = split[i * m + j];
+        Tet tet;
+        cone(b, i, l, j, sign, tet);
+        out.push_back(tet);
+        cone(d, i, l, j, -sign, tet);
+        out.push_back(tet);
+        stack.push_back({i, l});
+        stack.push_back({l, j});
+    }
+    return best[m - 1];
+}
+
+// Splits the edge (q, s) of a sliver whose vertices are all surface points
+// (flips cannot remove it without changing the surface, and no vertex may
+// move) by a new interior point m: every tet (q, s, x, y) at the edge
+// becomes (m, s, x, y) and (q, m, x, y). m is taken on the way from the
+// edge's midpoint to the centroid of the edge's ring, where the smallest
+// aspect ratio of the new tets is best; nothing changes unless that beats
+// the old tets' smallest one. Never used on a surface edge.
+bool split_surface_sliver_edge(TetEditor& ed, int32_t q, int32_t s)
+{
+    const std::vector<int32_t> around = ed.around_edge(q, s);
+    if (around.empty()) return false;
+    double old_q = 1e300;
+    Vec3 centroid;
+    int count = 0;
+    for (int32_t t : around) {
+        old_q = std::min(old_q, ed.aspect(ed.tet(t)));
+        for (int32_t v : ed.tet(t))
+            if (v != q && v != s) centroid += ed.point(v), ++count;
+    }
+    centroid /= count;
+    const Vec3 mid = 0.5 * (ed.point(q) + ed.point(s));
+    auto split = [&](int32_t m, std::vector<Tet>& out) {
+        out.clear();
+        for (int32_t t : around) {
+            Tet a = ed.tet(t), b = ed.tet(t);
+            for (int i = 0; i < 4; ++i) {
+                if (a[i] == q) a[i] = m;
+                if (b[i] == s) b[i] = m;
+            }
+            out.push_back(a);
+            out.push_back(b);
+        }
+    };
+    const int32_t m = ed.add_point(mid);
+    std::vector<Tet> fresh;
+    split(m, fresh);
+    double best = old_q;
+    Vec3 best_position;
+    bool found = false;
+    for (double w : {0.0, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6}) {
+        ed.point(m) = (1 - w) * mid + w * centroid;
+        double worst = 1e300;
+        for (const Tet& t : fresh) worst = std::min(worst, ed.aspect(t));
+        if (worst > best + 1e-9) best = worst, best_position = ed.point(m), found = true;
+    }
+    if (!found) {
+        ed.drop_last_point();
+        return false;
+    }
+    ed.point(m) = best_position;
+    ed.replace(around, fresh);
+    smooth_point(ed, m);
+    return true;
+}
+
+// The fallback of a quad repair: a new interior point m below the middle of
+// the stand-in diagonal (b, d) splits every tet (b, d, x, y) at it into
+// (m, d, x, y) and (b, m, x, y), and the two tets (a, c, b, m), (a, d, c, m)
+// put the quad's own triangles on the boundary. m is taken where the
+// smallest aspect ratio of all these tets is best; false (nothing changed)
+// when none keeps them all positive.
+bool split_quad_diagonal(TetEditor& ed, int32_t a, int32_t b, int32_t c, int32_t d,
+                         const std::vector<int32_t>& around)
+{
+    const Vec3 mid = 0.5 * (ed.point(b) + ed.point(d));
+    const Vec3 outward = cross(ed.point(b) - ed.point(a), ed.point(c) - ed.point(a)) +
+                         cross(ed.point(c) - ed.point(a), ed.point(d) - ed.point(a));
+    if (!(norm2(outward) > 0)) return false;
+    const Vec3 inward = -normalized(outward);
+    const double length = distance(ed.point(b), ed.point(d));
+    const int32_t m = ed.add_point(mid);
+    std::vector<Tet> fresh;
+    for (int32_t t : around) {
+        Tet x = ed.tet(t), y = ed.tet(t);
+        for (int i = 0; i < 4; ++i) {
+            if (x[i] == b) x[i] = m;
+            if (y[i] == d) y[i] = m;
+        }
+        fresh.push_back(x);
+        fresh.push_back(y);
+    }
+    fresh.push_back({a, c, b, m});
+    fresh.push_back({a, d, c, m});
+    double best = 0;
+    Vec3 best_position;
+    for (double depth : {0.02, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5}) {
+        ed.point(m) = mid + depth * length * inward;
+        double worst = 1e300;
+        for (const Tet& t : fresh) worst = std::min(worst, ed.aspect(t));
+        if (worst > best) best = worst, best_position = ed.point(m);
+    }
+    if (!(best > 1e-6)) {
+        ed.drop_last_point();
+        return false;
+    }
+    ed.point(m) = best_position;
+    ed.replace(around, fresh);
+    smooth_point(ed, m);
+    return true;
+}
+
 } // namespace
 
 std::vector<int32_t> repair_surface_quads(TetMesh& mesh, const std::vector<std::array<int32_t, 4>>& quads)
@@ -348,41 +532,29 @@ std::vector<int32_t> repair_surface_quads(TetMesh& mesh, const std::vector<std::
             }
         }
         ok = ok && chain.size() >= 3 && std::count(used.begin(), used.end(), 1) == int64_t(around.size());
-        // The polygon a, r_1, ..., r_k, c (closed by c -> a) is fanned from
-        // each of its vertices in turn; the first fan whose cones from b and
-        // d are all clearly positive, on opposite sides, is taken.
+        // The polygon a, r_1, ..., r_k, c (closed by c -> a) is triangulated
+        // (edge removal by dynamic programming over its sub-polygons) so that
+        // the cones from b and d over its triangles are all clearly positive,
+        // b and d on opposite sides, with the best smallest aspect ratio.
         std::vector<Tet> fresh;
         if (ok) {
             std::vector<Tet> old;
             for (int32_t t : around) old.push_back(ed.tet(t));
             const double l2 = longest_edge2(ed, old);
             const double floor6 = 1e-12 * l2 * std::sqrt(l2);
-            const size_t np = chain.size();
             ok = false;
-            for (size_t apex = 0; apex < np && !ok; ++apex) {
-                fresh.clear();
-                bool good = true;
-                int sign_b = 0;
-                for (size_t step = 1; good && step + 1 < np; ++step) {
-                    const int32_t p = chain[apex], q = chain[(apex + step) % np], r = chain[(apex + step + 1) % np];
-                    if (step + 1 < np - 1 && step > 1 && ed.has_edge(p, q)) good = false;
-                    for (int32_t tip : {b, d}) {
-                        double v6 = 0;
-                        const Tet t = oriented(ed, tip, p, q, r, v6);
-                        const int sign = t[1] == p ? 1 : -1;
-                        if (tip == b && sign_b == 0) sign_b = sign;
-                        if (!(v6 > floor6) || sign != (tip == b ? sign_b : -sign_b)) good = false;
-                        fresh.push_back(t);
-                    }
-                }
-                ok = good;
+            double best = 0;
+            for (int sign : {1, -1}) {
+                std::vector<Tet> candidate;
+                const double q = triangulate_ring(ed, chain, b, d, sign, floor6, candidate);
+                if (q > best) best = q, fresh = std::move(candidate), ok = true;
             }
         }
-        if (!ok) {
+        if (!ok && !split_quad_diagonal(ed, a, b, c, d, around)) {
             failed.push_back(static_cast<int32_t>(qi));
             continue;
         }
-        ed.replace(around, fresh);
+        if (ok) ed.replace(around, fresh);
     }
     ed.commit();
     return failed;
@@ -390,15 +562,25 @@ std::vector<int32_t> repair_surface_quads(TetMesh& mesh, const std::vector<std::
 
 FlipCounts flip_volume_criterion(TetMesh& mesh, int sweeps)
 {
+    // The first sweep visits every tet; each later one only the tets the
+    // previous sweep made, since a flip changes the rings of the edges and
+    // faces of its new tets only. A flip the volume criterion accepts has
+    // an old tet at least three times smaller than the new ones: in practice
+    // a sliver or a needle, so the search starts from the tets with aspect
+    // ratio below kSearchBelow only (the well-shaped majority is skipped).
+    constexpr double kSearchBelow = 0.3;
     FlipCounts counts;
     TetEditor ed(mesh);
     Flipper flipper(ed, Criterion::volume);
+    size_t begin = 0;
     for (int sweep = 0; sweep < sweeps; ++sweep) {
-        const int64_t before = counts.flips_32 + counts.flips_23 + counts.flips_44;
-        const size_t n = ed.size();
-        for (size_t t = 0; t < n; ++t)
-            if (ed.alive(static_cast<int32_t>(t))) flipper.improve_tet(static_cast<int32_t>(t), counts);
-        if (counts.flips_32 + counts.flips_23 + counts.flips_44 == before) break;
+        const size_t end = ed.size();
+        if (begin == end) break;
+        for (size_t t = begin; t < end; ++t) {
+            const int32_t id = static_cast<int32_t>(t);
+            if (ed.alive(id) && ed.aspect(ed.tet(id)) < kSearchBelow) flipper.improve_tet(id, counts);
+        }
+        begin = end;
     }
     ed.commit();
     return counts;
@@ -410,11 +592,16 @@ SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double thresh
     TetEditor ed(mesh);
     Flipper flipper(ed, Criterion::quality);
     FlipCounts flips;
-    for (int sweep = 0; sweep < sweeps; ++sweep) {
+    // The first sweep visits every tet; each later one the tets still below
+    // the threshold, the tets made since, and the tets at moved points (the
+    // only ones whose shape can have changed).
+    std::vector<int32_t> visit(ed.size());
+    for (size_t t = 0; t < visit.size(); ++t) visit[t] = static_cast<int32_t>(t);
+    for (int sweep = 0; sweep < sweeps && !visit.empty(); ++sweep) {
         int64_t changed = 0;
-        const size_t n = ed.size();
-        for (size_t t = 0; t < n; ++t) {
-            const int32_t id = static_cast<int32_t>(t);
+        const size_t made_from = ed.size();
+        std::vector<int32_t> next;
+        for (int32_t id : visit) {
             if (!ed.alive(id) || ed.aspect(ed.tet(id)) >= threshold) continue;
             if (flipper.improve_tet(id, flips)) {
                 ++changed;
@@ -422,9 +609,35 @@ SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double thresh
             }
             const Tet tet = ed.tet(id);
             for (int32_t v : tet)
-                if (v >= surface_points && smooth_point(ed, v)) ++counts.moves, ++changed;
+                if (v >= surface_points && smooth_point(ed, v)) {
+                    ++counts.moves, ++changed;
+                    const std::vector<int32_t>& star = ed.at(v);
+                    next.insert(next.end(), star.begin(), star.end());
+                }
+            if (ed.alive(id)) next.push_back(id);
         }
         if (changed == 0) break;
+        for (size_t t = made_from; t < ed.size(); ++t) next.push_back(static_cast<int32_t>(t));
+        std::sort(next.begin(), next.end());
+        next.erase(std::unique(next.begin(), next.end()), next.end());
+        visit = std::move(next);
+    }
+    // Slivers of four surface points that are left: split an edge that is
+    // not on the surface.
+    std::set<std::pair<int32_t, int32_t>> surface_edges;
+    for (const Triangle& f : mesh.boundary_faces)
+        for (int i = 0; i < 3; ++i)
+            surface_edges.insert(std::minmax(f[i], f[(i + 1) % 3]));
+    const size_t n = ed.size();
+    for (size_t t = 0; t < n; ++t) {
+        const int32_t id = static_cast<int32_t>(t);
+        if (!ed.alive(id) || ed.aspect(ed.tet(id)) >= threshold) continue;
+        const Tet tet = ed.tet(id);
+        if (*std::max_element(tet.begin(), tet.end()) >= surface_points) continue;
+        for (int i = 0; i < 4 && ed.alive(id); ++i)
+            for (int j = i + 1; j < 4 && ed.alive(id); ++j)
+                if (!surface_edges.count(std::minmax(tet[i], tet[j])) && split_surface_sliver_edge(ed, tet[i], tet[j]))
+                    ++counts.splits;
     }
     counts.flips = flips.flips_32 + flips.flips_23 + flips.flips_44;
     ed.commit();

@@ -13,8 +13,12 @@ namespace scalemesh {
 // Re-triangulates the tets at edge (b, d) of each quad so that the quad's
 // own triangles (a, b, c), (a, c, d) bound the mesh instead of (a, b, d),
 // (b, c, d): the chain of tets b d r_i r_{i+1} from a to c becomes the cones
-// from b and from d over the fan a r_i r_{i+1}. Returns the quads where that
-// is impossible (a new tet would not be positive), leaving them as they were.
+// from b and from d over a triangulation of the polygon a r_1 ... r_k c
+// (edge removal, the best smallest aspect ratio). Where no triangulation
+// keeps every tet positive, a new interior point m below the middle of
+// (b, d) (appended to mesh.points) splits the tets at (b, d), and the tets
+// (a, c, b, m), (a, d, c, m) close the quad. Returns the quads where both
+// fail, leaving them as they were.
 std::vector<int32_t> repair_surface_quads(TetMesh& mesh, const std::vector<std::array<int32_t, 4>>& quads);
 
 struct FlipCounts {
@@ -25,7 +29,8 @@ struct FlipCounts {
 // the smaller of the two new tets has more than 3 times the volume of the
 // smallest of the three old ones; the 2-3 flips of interior faces and the
 // 4-4 flips of interior edges with four tets that meet the same criterion
-// are made too. Sweeps until nothing flips, at most `sweeps` times.
+// are made too. The search starts from tets with aspect ratio below 0.3
+// (see the .cpp). Sweeps until nothing flips, at most `sweeps` times.
 // Surface faces (faces with one tet) are never touched, no point moves, the
 // boundary faces stay the same, every new tet is positively oriented, and
 // the union of the tets is unchanged (so is the total volume, to round-off).
@@ -35,6 +40,7 @@ FlipCounts flip_volume_criterion(TetMesh& mesh, int sweeps);
 struct SliverCounts {
     int64_t flips = 0; // quality-improving flips
     int64_t moves = 0; // accepted interior point moves
+    int64_t splits = 0; // edges split by a new interior point (appended to mesh.points)
 };
 
 // Sliver removal for tets with aspect ratio below `threshold`: first flips
@@ -43,9 +49,12 @@ struct SliverCounts {
 // such tets, each accepted only when it raises the smallest aspect ratio of
 // the point's incident tets and keeps all of them positively oriented
 // (line search along the gradient of the worst incident tet's aspect ratio,
-// and the star's centroid). Surface points never move, so the boundary is
-// bit-identical. At most `sweeps` rounds. Tets made only of surface points
-// with two surface faces can only be changed by flips and may remain.
+// and the star's centroid). At most `sweeps` rounds. Then a tet still below
+// `threshold` whose four vertices are surface points gets one of its edges
+// that is not a surface edge split by a new interior point (appended to
+// mesh.points), placed where the new tets are best, when that beats the old
+// ones. Surface points never move and no surface edge is split, so the
+// boundary is bit-identical (mesh.boundary_faces must hold it).
 SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double threshold, int sweeps);
 
 } // namespace scalemesh

@@ -16,7 +16,7 @@ struct OffsetParams {
     double growth = 1.0;  // ratio lambda_{m+1} / lambda_m of the layermaking spacing, >= 1;
                           // 1 = uniform lambda_m = 1/M (the paper's default)
     double L_max = 0;     // mm, > 0: filler spacing is min(D, L_max) / M
-    double filter_fraction = 0.2; // interior-point filter radius, fraction of min(d_a, d_b) / M, >= 0
+    double filter_fraction = 0.1; // interior-point filter radius, fraction of min(d_a, d_b) / M, >= 0
 };
 
 // One interior point x_i^m = x_i - dist n_i (n_i the outward unit normal).

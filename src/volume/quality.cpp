@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
+
+#include <tbb/parallel_for.h>
 
 namespace scalemesh {
 
@@ -19,9 +22,11 @@ double tet_aspect_ratio(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3&
 double tet_min_dihedral_deg(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d)
 {
     // The dihedral angle at edge (p, q) is the angle between the two faces
-    // through it: pi minus the angle of their outward normals.
+    // through it, measured between the other two vertices projected on the
+    // plane normal to the edge. The smallest angle has the largest cosine,
+    // so one acos per tet is enough.
     const Vec3 v[4] = {a, b, c, d};
-    double smallest = 180.0;
+    double largest_cosine = -1.0;
     for (int i = 0; i < 4; ++i)
         for (int j = i + 1; j < 4; ++j) {
             int others[2], o = 0;
@@ -34,10 +39,9 @@ double tet_min_dihedral_deg(const Vec3& a, const Vec3& b, const Vec3& c, const V
             w = w - dot(w, e) * e;
             const double nu = norm(u), nw = norm(w);
             if (!(nu > 0) || !(nw > 0)) return 0;
-            const double cosine = std::clamp(dot(u, w) / (nu * nw), -1.0, 1.0);
-            smallest = std::min(smallest, std::acos(cosine) * 180.0 / M_PI);
+            largest_cosine = std::max(largest_cosine, std::clamp(dot(u, w) / (nu * nw), -1.0, 1.0));
         }
-    return tet_volume6(a, b, c, d) > 0 ? smallest : 0.0;
+    return tet_volume6(a, b, c, d) > 0 ? std::acos(largest_cosine) * 180.0 / M_PI : 0.0;
 }
 
 QualityReport quality_report(const TetMesh& mesh)
@@ -45,20 +49,41 @@ QualityReport quality_report(const TetMesh& mesh)
     QualityReport r;
     r.tets = static_cast<int64_t>(mesh.tets.size());
     if (mesh.tets.empty()) return r;
+    struct Partial {
+        double min_q = 1e300, min_dihedral = 1e300, sum = 0;
+        int64_t low = 0, below_0_02 = 0;
+        std::array<int64_t, 20> histogram{};
+    };
+    // Parallel over blocks of tets; the sum is added per block in order of
+    // the blocks, so the mean is the same on any number of threads.
+    const size_t block = 1 << 14, blocks = (mesh.tets.size() + block - 1) / block;
+    std::vector<Partial> partial(blocks);
+    tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
+        Partial& p = partial[b];
+        const size_t end = std::min(mesh.tets.size(), (b + 1) * block);
+        for (size_t i = b * block; i < end; ++i) {
+            const Tet& t = mesh.tets[i];
+            const Vec3 &a = mesh.points[t[0]], &bb = mesh.points[t[1]], &c = mesh.points[t[2]], &d = mesh.points[t[3]];
+            const double q = tet_aspect_ratio(a, bb, c, d);
+            p.min_q = std::min(p.min_q, q);
+            p.min_dihedral = std::min(p.min_dihedral, tet_min_dihedral_deg(a, bb, c, d));
+            p.sum += q;
+            p.low += q < 0.1;
+            p.below_0_02 += q < 0.02;
+            ++p.histogram[std::clamp(static_cast<int>(std::floor(q * 20.0)), 0, 19)];
+        }
+    });
     r.min_aspect_ratio = 1e300;
     r.min_dihedral_deg = 1e300;
     double sum = 0;
     int64_t low = 0;
-    for (const Tet& t : mesh.tets) {
-        const Vec3 &a = mesh.points[t[0]], &b = mesh.points[t[1]], &c = mesh.points[t[2]], &d = mesh.points[t[3]];
-        const double q = tet_aspect_ratio(a, b, c, d);
-        r.min_aspect_ratio = std::min(r.min_aspect_ratio, q);
-        r.min_dihedral_deg = std::min(r.min_dihedral_deg, tet_min_dihedral_deg(a, b, c, d));
-        sum += q;
-        low += q < 0.1;
-        r.below_0_02 += q < 0.02;
-        const int bin = std::clamp(static_cast<int>(std::floor(q * 20.0)), 0, 19);
-        ++r.histogram[bin];
+    for (const Partial& p : partial) {
+        r.min_aspect_ratio = std::min(r.min_aspect_ratio, p.min_q);
+        r.min_dihedral_deg = std::min(r.min_dihedral_deg, p.min_dihedral);
+        sum += p.sum;
+        low += p.low;
+        r.below_0_02 += p.below_0_02;
+        for (int k = 0; k < 20; ++k) r.histogram[k] += p.histogram[k];
     }
     r.mean_aspect_ratio = sum / double(r.tets);
     r.fraction_below_0_1 = double(low) / double(r.tets);

@@ -28,7 +28,8 @@ struct QualityReport {
     std::array<int64_t, 20> histogram{}; // aspect ratio counts in [k/20, (k+1)/20), 1 in the last bin
 };
 
-// Linear in the number of tets. An empty mesh gives a zero report.
+// Linear in the number of tets, in parallel (TBB); the same on any number
+// of threads. An empty mesh gives a zero report.
 QualityReport quality_report(const TetMesh& mesh);
 
 } // namespace scalemesh

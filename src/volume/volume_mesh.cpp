@@ -25,7 +25,7 @@ void check_params(const VolumeParams& p)
         throw InputError("volume: L_max must be a positive finite length in mm", "pass the sizing stage's L_max");
     if (p.insertion_passes < 1) throw InputError("volume: insertion_passes must be >= 1", "use 3");
     if (!(p.min_volume_fraction >= 0) || !(p.filter_fraction >= 0))
-        throw InputError("volume: min_volume_fraction and filter_fraction must be >= 0", "use 1e-3 and 0.2");
+        throw InputError("volume: min_volume_fraction and filter_fraction must be >= 0", "use 1e-3 and 0.1");
     if (p.flip_sweeps < 0 || p.sliver_sweeps < 0) throw InputError("volume: sweep counts must be >= 0", "use 10 and 20");
 }
 
@@ -52,6 +52,23 @@ int32_t find_root(std::vector<int32_t>& parent, int32_t x)
 {
     while (parent[x] != x) x = parent[x] = parent[parent[x]];
     return x;
+}
+
+// Points made by quad repairs and edge splits (appended to the mesh after
+// the inserted ones): interior, attributed to the nearest surface point, as
+// filler points of layer 1 so that they count for no layer.
+void attribute_new_points(VolumeResult& result, int32_t n)
+{
+    const std::vector<Vec3>& points = result.mesh.points;
+    for (size_t p = result.point_generator.size(); p < points.size(); ++p) {
+        int32_t nearest = 0;
+        double best = 1e300;
+        for (int32_t v = 0; v < n; ++v) // a handful of points: a linear search is enough
+            if (distance(points[v], points[p]) < best) best = distance(points[v], points[p]), nearest = v;
+        result.point_generator.push_back(nearest);
+        result.point_layer.push_back(1);
+        result.point_filler.push_back(1);
+    }
 }
 
 } // namespace
@@ -121,7 +138,7 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
     // A quad whose re-triangulation fails gets a bounded retry: the whole
     // insertion runs again with its diagonal protected, so no interior
     // point joins it and the tets to re-triangulate are few and simple.
-    InsertionParams insertion{params.insertion_passes, params.min_volume_fraction, params.protect_surface, {}};
+    InsertionParams insertion{params.insertion_passes, params.min_volume_fraction, {}};
     InsertionResult ins;
     std::vector<int32_t> failed_quads;
     TetMesh& mesh = result.mesh;
@@ -166,10 +183,10 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
                                         "(nodes " + list_ids(nodes) + "). Refine the surface there and re-run",
                                     {}, nodes);
     }
-    result.point_generator.resize(mesh.points.size());
-    result.point_layer.resize(mesh.points.size());
-    result.point_filler.resize(mesh.points.size());
-    for (size_t p = 0; p < mesh.points.size(); ++p) {
+    result.point_generator.resize(ins.source.size());
+    result.point_layer.resize(ins.source.size());
+    result.point_filler.resize(ins.source.size());
+    for (size_t p = 0; p < ins.source.size(); ++p) {
         const int32_t s = ins.source[p];
         if (s < n) {
             result.point_generator[p] = s, result.point_layer[p] = 0, result.point_filler[p] = 0;
@@ -179,6 +196,7 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
             result.point_filler[p] = op.filler ? 1 : 0;
         }
     }
+    attribute_new_points(result, n);
 
     // Realised layers and first-layer anisotropy.
     const int layermaking = static_cast<int>(std::floor(params.M / 2));
@@ -224,7 +242,8 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
         result.after_flips = quality_report(mesh);
         t0 = Clock::now();
         const SliverCounts slivers = remove_slivers(mesh, n, params.sliver_aspect_ratio, params.sliver_sweeps);
-        result.sliver_flips = slivers.flips, result.sliver_moves = slivers.moves;
+        result.sliver_flips = slivers.flips, result.sliver_moves = slivers.moves, result.sliver_splits = slivers.splits;
+        attribute_new_points(result, n);
         result.seconds_slivers = seconds_since(t0);
         result.after_slivers = quality_report(mesh);
     }

@@ -4,8 +4,9 @@
 // and the quality statistics of section 3 (Fig. 19).
 //
 //   offset points (Algorithm 4) -> interior-point filter (section 4)
-//   -> conditional Delaunay insertion, surface first, then layer by layer
-//      (Algorithm 5) -> exterior removal -> conformity and topology checks
+//   -> surface points, sides of the cells -> conditional insertion layer by
+//      layer, each layer spatially sorted, cavities confined to the inside
+//      (Algorithm 5) -> inside cells, quad repair -> topology check
 //   -> 3-2 / 2-3 / 4-4 flips with the volume criterion (section 2.4)
 //   -> sliver removal (own design, see improve.h)
 
@@ -27,12 +28,13 @@ struct VolumeParams {
     double M = 7;        // element layers across a cross-section, >= 1
     double growth = 1.0; // layer growth ratio lambda_{m+1} / lambda_m, >= 1; 1 = uniform (see layer_fractions)
     double L_max = std::numeric_limits<double>::quiet_NaN(); // mm, required: filler spacing min(D, L_max) / M
-    double filter_fraction = 0.2;      // interior-point filter radius, fraction of min(d_a, d_b) / M
-    double min_volume_fraction = 1e-3; // Algorithm 5 (i): a point is not inserted when one of its new tets
-                                       // has volume below this fraction of s^3, s = the point's spacing
-                                       // (lambda_m d or min(D, L_max) / M, mm)
-    bool protect_surface = true; // also reject a point whose cavity would remove a surface triangle
-                                 // that is already a facet (keeps the surface conforming; see .cpp)
+    double filter_fraction = 0.1;      // interior-point filter radius, fraction of min(d_a, d_b) / M
+                                       // (0.2 dropped the innermost layer point of ~7% of the wall
+                                       // nodes on the tube, where the rays converge at the axis)
+    double min_volume_fraction = 1e-3; // Algorithm 5 (i): no new tet of a point has volume below this
+                                       // fraction of s^3, s = the point's spacing (lambda_m d or
+                                       // min(D, L_max) / M, mm): the cavity is shrunk, or the point
+                                       // refused when the cell holding it would go
     int insertion_passes = 3;    // passes of Algorithm 5 over the not yet inserted points, >= 1
     bool improve = true;         // run flips and sliver removal (section 2.4)
     int flip_sweeps = 10;        // at most this many sweeps of volume-criterion flips, >= 0
@@ -45,9 +47,10 @@ struct VolumeResult {
     TetMesh mesh; // points 0..n-1 are the surface points, boundary_faces the surface triangles
     QualityReport before_flips, after_flips, after_slivers;
     std::vector<int32_t> realised_layers; // per surface node: consecutive layermaking points in the mesh
-    std::vector<int32_t> point_generator; // per mesh point: generating surface node (itself for surface points)
-    std::vector<int32_t> point_layer;     // per mesh point: m (0 on the surface)
-    std::vector<char> point_filler;       // per mesh point: 1 for filler points
+    std::vector<int32_t> point_generator; // per mesh point: generating surface node (itself for surface points;
+                                          // for a point made by a sliver edge split, the nearest surface point)
+    std::vector<int32_t> point_layer;     // per mesh point: m (0 on the surface; 1 for edge-split points)
+    std::vector<char> point_filler;       // per mesh point: 1 for filler points and edge-split points
     double first_layer_anisotropy_median = 0; // median over nodes with a first layer point
     std::vector<double> near_wall_anisotropy; // per surface node: mean incident surface edge length /
                                               // first-layer thickness; NaN without a first layer point
@@ -56,13 +59,14 @@ struct VolumeResult {
     int64_t inserted_points = 0; // interior points in the triangulation after insertion
     int64_t rejected_small = 0;  // final rejections for (i), tiny tets
     int64_t rejected_filler = 0; // final rejections for (ii), filler to surface point
-    int64_t rejected_surface = 0; // final rejections for destroying a surface facet
-    int64_t rejected_other = 0;  // duplicates or outside the convex hull of the surface
+    int64_t rejected_surface = 0; // final rejections for not seeing a surface triangle of the cavity
+    int64_t rejected_other = 0;  // outside the surface, or on a vertex
     int64_t unused_points = 0;
     int64_t insertion_retries = 0; // re-runs of the insertion with failed quad diagonals protected
-    int64_t surface_quads = 0;   // surface quads split the other way by Delaunay, re-triangulated   // inserted interior points outside the surface (no kept tet)
+    int64_t surface_quads = 0;   // surface quads split the other way by Delaunay, re-triangulated
     int64_t flips_32 = 0, flips_23 = 0, flips_44 = 0;
     int64_t sliver_flips = 0, sliver_moves = 0;
+    int64_t sliver_splits = 0;   // edges of surface-point slivers split by a new interior point
     double seconds_points = 0, seconds_insertion = 0, seconds_classify = 0, seconds_flips = 0,
            seconds_slivers = 0, seconds_total = 0;
 };
@@ -93,6 +97,12 @@ public:
 // boundary_matches and the enclosed volume to round-off); each surface node's
 // incident tets are one face-connected component (check_topology). Interior
 // points are never on the surface; improvement moves interior points only.
+// Besides the offset points, a few interior points may be made where a
+// surface quad cannot be re-triangulated otherwise or a sliver of four
+// surface points is left (improve.h); they are attributed as filler points.
+// Each insertion cavity is confined to the inside of the surface and shrunk
+// to be star-shaped (delaunay_insertion.cpp), so the inside is a Delaunay
+// triangulation constrained by the surface rather than an exact one.
 //
 // Throws InputError when the surface is not a closed oriented 2-manifold, the
 // sizing does not match it, or a parameter is out of range; throws

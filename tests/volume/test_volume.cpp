@@ -10,6 +10,7 @@
 #include "core/tet_mesh.h"
 #include "isosurface/marching_cubes.h"
 #include "phantom/phantom.h"
+#include "remeshing/remesh.h"
 #include "sizing/feature_size.h"
 #include "smoothing/volume_conserving_smoothing.h"
 #include "volume/offset_points.h"
@@ -156,10 +157,21 @@ TEST_P(VolumePhantom, ConformingPositiveAndOfTheSurfacesTopology)
 
 // Paper section 2.3: on a tube of diameter in [L_min, L_max] with M = 7 the
 // interior points of a thin cross-sectional slab lie on floor(M/2) = 3 rings
-// per wall, at d/M, 2d/M and 3d/M from the wall.
+// per wall, at d/M, 2d/M and 3d/M from the wall. The surface is remeshed to
+// edge length K/M d first, as Algorithm 6 does before the volume points:
+// the layers and the near-wall anisotropy K are made for that surface.
 TEST(VolumeLayers, TubeHasThreeRingsPerWallAndRealisesTheLayers)
 {
-    const Prepared p = prepare("tube", 1.0, 2.0, 10.0);
+    const double h = 1.0;
+    Prepared p = prepare("tube", h, 2.0, 10.0);
+    RemeshParams remesh;
+    remesh.K = p.sizing.K;
+    remesh.M = p.sizing.M;
+    remesh.sizing = p.sizing;
+    remesh.max_displacement = 0.5 * h;
+    RemeshResult remeshed = remesh_to_feature_size(p.surface, p.size.d, remesh);
+    p.surface = std::move(remeshed.surface);
+    p.size = std::move(remeshed.sizing);
     const VolumeResult r = build_volume_mesh(p.surface, p.size, volume_params(p));
     const TetMesh& mesh = r.mesh;
     const int32_t n = int32_t(p.surface.points.size());
@@ -191,13 +203,14 @@ TEST(VolumeLayers, TubeHasThreeRingsPerWallAndRealisesTheLayers)
               << "; near-wall anisotropy in [K/2, K] at " << anisotropy * 100 << "% (median "
               << r.first_layer_anisotropy_median << ")\n";
     EXPECT_GE(ring_fraction, 0.95);
-    // Open in issue 5: on this raw marching cubes surface (edges near h, far
-    // shorter than K/M d) not every node realises its three layer points and
-    // the near-wall anisotropy is near 1; measured 62% and 0% here.
-    if (realised < 0.95 || anisotropy < 0.90)
-        GTEST_SKIP() << "pending (issue 5): all layers realised at " << realised * 100
-                     << "% of nodes (need 95%), near-wall anisotropy in [K/2, K] at " << anisotropy * 100
-                     << "% (need 90%)";
+    EXPECT_GE(realised, 0.95);
+    // The near-wall anisotropy is the remeshed surface's edge length over
+    // d/M: in [K/2, K] exactly where the remeshing reached its target edge
+    // length [K/2M d, K/M d] against the d recomputed on its result. Open in
+    // issue 5 for the remeshing stage: measured 68-69% (median 2.35) here.
+    if (anisotropy < 0.90)
+        GTEST_SKIP() << "pending (issue 5, remeshing edge lengths): near-wall anisotropy in [K/2, K] at "
+                     << anisotropy * 100 << "% (need 90%), median " << r.first_layer_anisotropy_median;
 }
 
 // Paper section 2.4 / issue 5: after improvement no tet has aspect ratio below 0.02.
