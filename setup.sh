@@ -15,6 +15,7 @@ packages=(
   libopenvdb-dev libboost-iostreams-dev libembree-dev libcgal-dev libgmsh-dev libtbb-dev
   libboost-dev libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
   libinsighttoolkit5-dev libgdcm-tools zlib1g-dev
+  libtinyobjloader-dev libexpat1-dev libpng-dev
   googletest libgtest-dev libbenchmark-dev
   openfoam
 )

@@ -1,10 +1,12 @@
-// The scalemesh command line: verbs phantom, surface and run. Errors from the
-// library become one line on stderr and a non-zero exit code; an interrupt
-// removes every output still being written.
+// The scalemesh command line: verbs phantom, surface, run and check. Errors
+// from the library become one line on stderr and a non-zero exit code; an
+// interrupt removes every output still being written. Progress goes to stderr
+// (cli/progress.h).
 
 #include "core/atomic_file.h"
 #include "core/errors.h"
 #include "core/version.h"
+#include "cli/progress.h"
 #include "exporters/msh_reader.h"
 #include "exporters/surface_writers.h"
 #include "importers/vdb_importer.h"
@@ -14,6 +16,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <iostream>
@@ -27,21 +30,6 @@ void on_signal(int signal)
 {
     remove_pending_outputs();
     ::_exit(128 + signal);
-}
-
-enum class Verbosity { Quiet, Normal, Verbose };
-
-StageListener progress(Verbosity verbosity)
-{
-    return [verbosity](const StageTime& stage) {
-        if (verbosity == Verbosity::Quiet) return;
-        if (stage.seconds < 0) {
-            if (verbosity == Verbosity::Verbose) std::fprintf(stderr, "scalemesh: %s ...\n", stage.name.c_str());
-            return;
-        }
-        std::fprintf(stderr, "scalemesh: %-10s %7.2f s  %s\n", stage.name.c_str(), stage.seconds,
-                     stage.summary.c_str());
-    };
 }
 
 std::string extension_of(const std::string& path) { return std::filesystem::path(path).extension().string(); }
@@ -60,7 +48,7 @@ int main(int argc, char** argv)
     app.set_version_flag("--version", SCALEMESH_VERSION);
     bool quiet = false, verbose = false;
     app.add_flag("-q,--quiet", quiet, "Print nothing but errors");
-    app.add_flag("-v,--verbose", verbose, "Print each stage as it starts");
+    app.add_flag("-v,--verbose", verbose, "Also print each stage as it starts, and per-stage details at the end");
 
     // phantom
     std::string shape, phantom_out;
@@ -83,7 +71,12 @@ int main(int argc, char** argv)
     std::string L_min, L_max;
     auto* surface_cmd = app.add_subcommand(
         "surface", "Marching cubes surface of an image (optionally smoothed, with the feature size field)");
-    surface_cmd->add_option("input", surface_in, "Input image (.vdb) or closed surface (.stl)")->required();
+    surface_cmd->add_option("input", surface_in,
+                            "Input image (.vdb, .nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd) or closed surface "
+                            "(.stl, .ply, .obj, .vtp, .msh)")
+        ->required();
+    std::string units;
+    surface_cmd->add_option("--units", units, "Unit of a surface file's coordinates: mm (default), cm, m or um");
     surface_cmd->add_option("-o,--output", surface_out, "Output surface: .msh, .vtk or .stl")->required();
     surface_cmd->add_option("--grid", grid_name, "VDB grid name (default: the first scalar grid)");
     surface_cmd->add_option("--iso", iso, "Iso value (default 0 for level sets, 0.5 for label grids)");
@@ -115,6 +108,9 @@ int main(int argc, char** argv)
         return app.exit(e);
     }
     const Verbosity verbosity = quiet ? Verbosity::Quiet : (verbose ? Verbosity::Verbose : Verbosity::Normal);
+    const bool terminal = ::isatty(STDERR_FILENO) == 1;
+    // Stages of a run: import, isosurface, smoothing, sizing, remeshing, volume.
+    ProgressDisplay display(verbosity, stderr, terminal, *run_cmd ? 6 : 4);
 
     try {
         if (*phantom_cmd) {
@@ -135,6 +131,7 @@ int main(int argc, char** argv)
             // The verb is a case without a case file: its flags fill one in.
             std::string text = "[input]\nfile = " + CLI::detail::to_string(std::quoted(surface_in)) + "\n";
             if (!grid_name.empty()) text += "grid = " + CLI::detail::to_string(std::quoted(grid_name)) + "\n";
+            if (!units.empty()) text += "units = " + CLI::detail::to_string(std::quoted(units)) + "\n";
             if (iso) text += "iso = " + std::to_string(*iso) + "\n";
             text += "connectivity = " + std::to_string(connectivity) + "\n";
             sizing = sizing || remesh;
@@ -144,7 +141,7 @@ int main(int argc, char** argv)
             if (!L_max.empty()) text += "L_max = " + CLI::detail::to_string(std::quoted(L_max)) + "\n";
             const CaseConfig config = parse_case(text, ".", "command line");
             const PipelineRun run =
-                run_pipeline(config, {.sizing = sizing, .remesh = remesh, .volume = false}, progress(verbosity));
+                run_pipeline(config, {.sizing = sizing, .remesh = remesh, .volume = false}, display.listener());
             write_surface(final_surface(run), surface_fields(run, config.K, config.M), surface_out);
             if (verbosity != Verbosity::Quiet) std::fprintf(stderr, "scalemesh: wrote %s\n", surface_out.c_str());
         } else if (*check_cmd) {
@@ -173,20 +170,22 @@ int main(int argc, char** argv)
             std::printf("  %s\n", valid ? "valid" : "INVALID");
             return valid ? 0 : 4;
         } else if (*run_cmd) {
-            const CaseResult result = run_case(case_dir, progress(verbosity));
-            if (verbosity != Verbosity::Quiet) {
-                std::fprintf(stderr, "scalemesh: %lld surface triangles; wrote", static_cast<long long>(result.run.facts.triangles));
-                for (const auto& p : result.written) std::fprintf(stderr, " %s", p.string().c_str());
-                std::fprintf(stderr, "\n");
-            }
+            const auto start = std::chrono::steady_clock::now();
+            const CaseConfig config = read_case(case_dir);
+            const CaseResult result = run_case(case_dir, display.listener());
+            display.summary(config, result,
+                            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
         }
     } catch (const scalemesh::Error& e) {
+        display.clear();
         std::fprintf(stderr, "scalemesh: error: %s\n", e.what());
         return e.exit_code();
     } catch (const std::bad_alloc&) {
+        display.clear();
         std::fprintf(stderr, "scalemesh: error: out of memory. Hint: use a larger voxel size or a smaller region\n");
         return 5;
     } catch (const std::exception& e) {
+        display.clear();
         std::fprintf(stderr, "scalemesh: internal error: %s\n", e.what());
         return 70;
     }

@@ -1,0 +1,348 @@
+// read_surface on PLY, OBJ, VTP, MSH and STL: known shapes written by hand in
+// each format, the real vmtk aorta surface, malformed variants, and
+// deterministic random corruptions that must give an error, never a crash.
+
+#include "core/errors.h"
+#include "importers/stl_importer.h"
+#include "importers/surface_importer.h"
+#include "support/temp_dir.h"
+#include "surface_files.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+namespace scalemesh {
+namespace {
+
+using namespace scalemesh::test;
+
+const std::filesystem::path kAorta = "../shared/data/vmtk_aorta_capped.stl";
+
+struct Variant {
+    std::string name; // file name, extension included
+    std::string (*text)(const PolyMesh&);
+};
+
+const std::vector<Variant>& variants()
+{
+    static const std::vector<Variant> all = {
+        {"ascii.ply", [](const PolyMesh& m) { return ply_text(m, PlyFormat::Ascii); }},
+        {"little.ply", [](const PolyMesh& m) { return ply_text(m, PlyFormat::BinaryLittle); }},
+        {"big.ply", [](const PolyMesh& m) { return ply_text(m, PlyFormat::BinaryBig); }},
+        {"shape.obj", [](const PolyMesh& m) { return obj_text(m); }},
+        {"ascii.vtp", [](const PolyMesh& m) { return vtp_text(m, VtpFormat::Ascii); }},
+        {"binary32.vtp", [](const PolyMesh& m) { return vtp_text(m, VtpFormat::Binary32); }},
+        {"binary64.vtp", [](const PolyMesh& m) { return vtp_text(m, VtpFormat::Binary64Separate); }},
+        {"shape.msh", [](const PolyMesh& m) { return msh_text(m); }},
+    };
+    return all;
+}
+
+void expect_box(const SurfaceMesh& mesh, const Vec3& lo, const Vec3& hi, double tol, const std::string& what)
+{
+    Vec3 a, b;
+    bounding_box(mesh, a, b);
+    for (int k = 0; k < 3; ++k) {
+        EXPECT_NEAR(a[k], lo[k], tol) << what << " axis " << k;
+        EXPECT_NEAR(b[k], hi[k], tol) << what << " axis " << k;
+    }
+}
+
+// The facts every successful read guarantees.
+void expect_well_formed(const SurfaceMesh& mesh, const std::string& what)
+{
+    std::vector<char> used(mesh.points.size(), 0);
+    for (const Triangle& t : mesh.triangles) {
+        for (int32_t v : t) {
+            ASSERT_GE(v, 0) << what;
+            ASSERT_LT(v, static_cast<int32_t>(mesh.points.size())) << what;
+            used[v] = 1;
+        }
+        EXPECT_TRUE(t[0] != t[1] && t[1] != t[2] && t[0] != t[2]) << what;
+    }
+    EXPECT_EQ(std::count(used.begin(), used.end(), 0), 0) << what << ": every point is used";
+    for (const Vec3& p : mesh.points) EXPECT_TRUE(std::isfinite(p.x + p.y + p.z)) << what;
+}
+
+TEST(SurfaceImporter, ReadsTheQuadCubeInEveryFormat)
+{
+    const TempDir tmp;
+    for (const Variant& v : variants()) {
+        const auto path = tmp.path / v.name;
+        write_text(path, v.text(quad_cube()));
+        const SurfaceMesh mesh = read_surface(path);
+        const SurfaceFacts facts = surface_facts(mesh);
+        EXPECT_EQ(facts.triangles, 12) << v.name << ": six quads fanned into two triangles each";
+        EXPECT_EQ(facts.vertices, 8) << v.name;
+        EXPECT_TRUE(facts.closed_manifold()) << v.name;
+        EXPECT_NEAR(facts.signed_volume, 8.0, 1e-12) << v.name << ": the file's winding is kept (outward)";
+        expect_box(mesh, {-1, -1, -1}, {1, 1, 1}, 0, v.name);
+        expect_well_formed(mesh, v.name);
+    }
+}
+
+TEST(SurfaceImporter, ReadsAnIcosphereInEveryFormatAsSTLDoes)
+{
+    const TempDir tmp;
+    const PolyMesh sphere = icosphere(2, 5.0);
+    for (const Variant& v : variants()) {
+        const auto path = tmp.path / v.name;
+        write_text(path, v.text(sphere));
+        const SurfaceMesh mesh = read_surface(path);
+        const SurfaceFacts facts = surface_facts(mesh);
+        EXPECT_EQ(facts.triangles, 320) << v.name;
+        EXPECT_EQ(facts.vertices, 162) << v.name;
+        EXPECT_EQ(facts.euler_characteristic, 2) << v.name;
+        EXPECT_TRUE(facts.closed_manifold()) << v.name;
+        expect_box(mesh, {-5, -5, -5}, {5, 5, 5}, 1e-9, v.name);
+        // Points in first-use order, as read_stl numbers them.
+        EXPECT_EQ(mesh.triangles.front(), (Triangle{0, 1, 2})) << v.name;
+    }
+}
+
+TEST(SurfaceImporter, ScalesToMillimetresByTheUnit)
+{
+    EXPECT_EQ(unit_to_mm("mm"), 1.0);
+    EXPECT_EQ(unit_to_mm("cm"), 10.0);
+    EXPECT_EQ(unit_to_mm("m"), 1000.0);
+    EXPECT_EQ(unit_to_mm("um"), 1e-3);
+    EXPECT_THROW(unit_to_mm("inch"), InputError);
+    const TempDir tmp;
+    for (const Variant& v : variants()) {
+        const auto path = tmp.path / v.name;
+        write_text(path, v.text(quad_cube()));
+        expect_box(read_surface(path, unit_to_mm("m")), {-1000, -1000, -1000}, {1000, 1000, 1000}, 0, v.name);
+        EXPECT_THROW(read_surface(path, 0.0), InputError) << v.name;
+        EXPECT_THROW(read_surface(path, std::nan("")), InputError) << v.name;
+    }
+}
+
+TEST(SurfaceImporter, DispatchesOnTheExtensionInAnyCase)
+{
+    const TempDir tmp;
+    write_text(tmp.path / "CUBE.PLY", ply_text(quad_cube(), PlyFormat::Ascii));
+    EXPECT_EQ(read_surface(tmp.path / "CUBE.PLY").triangles.size(), 12u);
+    EXPECT_TRUE(is_surface_file("a/b.Vtp"));
+    EXPECT_FALSE(is_surface_file("a/b.nii.gz"));
+    write_text(tmp.path / "cube.off", "OFF\n");
+    EXPECT_THROW(read_surface(tmp.path / "cube.off"), InputError);
+    EXPECT_THROW(read_surface(tmp.path / "missing.ply"), IoError);
+    std::filesystem::create_directory(tmp.path / "folder.ply");
+    EXPECT_THROW(read_surface(tmp.path / "folder.ply"), IoError);
+}
+
+// The real vmtk aorta (binary STL, 12,932 triangles, closed, genus 0) through
+// read_surface, then converted to every other format and read back.
+TEST(SurfaceImporter, ReadsTheRealAortaInEveryFormat)
+{
+    ASSERT_TRUE(std::filesystem::exists(kAorta)) << "the shared data is missing: " << kAorta;
+    const SurfaceMesh stl = read_surface(kAorta);
+    const SurfaceFacts facts = surface_facts(stl);
+    EXPECT_EQ(facts.triangles, 12932);
+    EXPECT_TRUE(facts.closed_manifold());
+    EXPECT_EQ(facts.euler_characteristic, 2);
+    EXPECT_EQ(stl.points, read_stl(kAorta).points) << "read_surface of an STL is read_stl";
+    Vec3 lo, hi;
+    bounding_box(stl, lo, hi);
+
+    const TempDir tmp;
+    for (const Variant& v : variants()) {
+        const auto path = tmp.path / v.name;
+        write_text(path, v.text(from_surface(stl)));
+        const SurfaceMesh mesh = read_surface(path);
+        EXPECT_EQ(mesh.triangles, stl.triangles) << v.name;
+        expect_box(mesh, lo, hi, 1e-12, v.name);
+        EXPECT_NEAR(signed_volume(mesh), facts.signed_volume, 1e-9 * std::abs(facts.signed_volume)) << v.name;
+    }
+}
+
+void expect_input_error(const std::filesystem::path& path, const std::string& text, const std::string& mentions)
+{
+    write_text(path, text);
+    try {
+        read_surface(path);
+        ADD_FAILURE() << path.filename() << " was read: " << text.substr(0, 200);
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find(mentions), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find(path.string()), std::string::npos) << "names the file: " << e.what();
+    } catch (const std::exception& e) {
+        ADD_FAILURE() << path.filename() << ": " << typeid(e).name() << " " << e.what();
+    }
+}
+
+std::string replace_first(std::string s, const std::string& from, const std::string& to)
+{
+    const size_t at = s.find(from);
+    if (at == std::string::npos) throw std::logic_error("'" + from + "' is not in the text");
+    return s.replace(at, from.size(), to);
+}
+
+PolyMesh with_nan(PolyMesh m)
+{
+    m.points[3].y = std::nan("");
+    return m;
+}
+
+PolyMesh with_index(PolyMesh m, int32_t index)
+{
+    m.faces[2][1] = index;
+    return m;
+}
+
+TEST(SurfaceImporter, RefusesMalformedPly)
+{
+    const TempDir tmp;
+    const auto p = tmp.path / "bad.ply";
+    for (PlyFormat f : {PlyFormat::Ascii, PlyFormat::BinaryLittle, PlyFormat::BinaryBig}) {
+        const std::string good = ply_text(quad_cube(), f);
+        expect_input_error(p, good.substr(0, good.size() - 30), "");                      // truncated
+        expect_input_error(p, replace_first(good, "ply\n", "plx\n"), "does not begin");  // wrong magic
+        expect_input_error(p, replace_first(good, "element face 6", "element face 0"), ""); // zero faces
+        expect_input_error(p, replace_first(good, "element vertex 8", "element vertex 0"), "");
+        expect_input_error(p, replace_first(good, "element vertex 8", "element vertex 4000000000"), "");
+        expect_input_error(p, ply_text(with_nan(quad_cube()), f), "NaN");
+        expect_input_error(p, ply_text(with_index(quad_cube(), 8), f), "refers to point 8");
+        expect_input_error(p, ply_text(with_index(quad_cube(), -1), f), "refers to point -1");
+        expect_input_error(p, replace_first(good, "end_header\n", ""), "header");
+        expect_input_error(p, replace_first(good, "property double x\n", ""), "x, y and z");
+    }
+    // A list length far beyond the file, in binary: checked before any allocation.
+    std::string huge = ply_text(quad_cube(), PlyFormat::BinaryLittle);
+    huge = replace_first(huge, "property list uchar int", "property list uint int");
+    expect_input_error(p, huge, "");
+    expect_input_error(p, "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                          "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                          "0 0 0\n1 0 0\n0 1 0\n2 0 1\n", "2 corners");
+}
+
+TEST(SurfaceImporter, RefusesMalformedObj)
+{
+    const TempDir tmp;
+    const auto p = tmp.path / "bad.obj";
+    const std::string good = obj_text(quad_cube());
+    expect_input_error(p, good.substr(0, good.find("\nf ")), "no faces");              // truncated before the faces
+    expect_input_error(p, "v 0 0 0\nv 1 0 0\nv 0 1 0\n", "no faces");                // zero faces
+    expect_input_error(p, "# nothing\n", "no faces");
+    expect_input_error(p, obj_text(with_nan(quad_cube())), "not a finite number");
+    expect_input_error(p, obj_text(with_index(quad_cube(), 8)), "refers to point 8");
+    expect_input_error(p, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -7\n", "refers to point");
+    expect_input_error(p, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n", "no faces");
+    expect_input_error(p, "v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n", "line 2");
+    expect_input_error(p, "v 0 0 0\nv 1 0 0\nv 0 1 inf\nf 1 2 3\n", "line 3");
+    expect_input_error(p, "v 0 0 0\nv 1 0\nv 0 1 0\nf 1 2 3\n", "line 2");
+    expect_input_error(p, std::string("\x89PNG\r\n\x1a\n", 8) + std::string(100, '\0'), "");
+}
+
+TEST(SurfaceImporter, RefusesMalformedVtp)
+{
+    const TempDir tmp;
+    const auto p = tmp.path / "bad.vtp";
+    for (VtpFormat f : {VtpFormat::Ascii, VtpFormat::Binary32, VtpFormat::Binary64Separate}) {
+        const std::string good = vtp_text(quad_cube(), f);
+        expect_input_error(p, good.substr(0, good.size() / 2), "not well-formed");     // truncated
+        expect_input_error(p, replace_first(good, "<VTKFile", "<VTKFoo"), "");           // wrong root
+        expect_input_error(p, replace_first(good, "PolyData\" version", "UnstructuredGrid\" version"), "not VTK PolyData");
+        expect_input_error(p, replace_first(good, "NumberOfPolys=\"6\"", "NumberOfPolys=\"0\""), "");
+        expect_input_error(p, replace_first(good, "NumberOfPoints=\"8\"", "NumberOfPoints=\"0\""), "");
+        expect_input_error(p, replace_first(good, "NumberOfStrips=\"0\"", "NumberOfStrips=\"2\""), "Strips");
+        expect_input_error(p, vtp_text(with_nan(quad_cube()), f), "NaN");
+        expect_input_error(p, vtp_text(with_index(quad_cube(), 8), f), "");
+    }
+    const std::string good = vtp_text(quad_cube(), VtpFormat::Binary32);
+    expect_input_error(p, replace_first(good, "header_type=\"UInt32\"", "header_type=\"UInt32\" compressor=\"vtkZLibDataCompressor\""),
+                       "compressed");
+    expect_input_error(p, replace_first(replace_first(good, "format=\"binary\"", "format=\"appended\" offset=\"0\""),
+                                        "</PolyData>", "</PolyData>\n  <AppendedData encoding=\"base64\">_AAAA</AppendedData>"),
+                       "appended");
+    const std::string points = "Name=\"Points\" NumberOfComponents=\"3\" format=\"binary\">\n          ";
+    expect_input_error(p, replace_first(good, points, points + "!"), "not base64");
+}
+
+TEST(SurfaceImporter, RefusesMalformedMsh)
+{
+    const TempDir tmp;
+    const auto p = tmp.path / "bad.msh";
+    const std::string good = msh_text(quad_cube());
+    expect_input_error(p, replace_first(good, "$MeshFormat", "$MeshFormax"), "MeshFormat");
+    expect_input_error(p, replace_first(good, "$Elements\n12\n", "$Elements\n0\n").substr(0, good.find("$Elements") + 12) +
+                              "$EndElements\n",
+                       "no triangles");
+    expect_input_error(p, msh_text(with_index(quad_cube(), 99)), "node index 100");
+    expect_input_error(p, good.substr(0, good.size() / 2), "");
+    expect_input_error(p, replace_first(good, "1 -1 -1 -1", "1 -1 nan -1"), "");
+}
+
+TEST(SurfaceImporter, StlThroughReadSurfaceRefusesLikeReadStl)
+{
+    const TempDir tmp;
+    const auto p = tmp.path / "bad.stl";
+    expect_input_error(p, "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 nan\nvertex 1 0 0\nvertex 0 1 0\n"
+                          "endloop\nendfacet\nendsolid x\n", "NaN");
+    expect_input_error(p, std::string(84, '\0'), "no triangles");
+}
+
+// Deterministic random corruptions of each format's valid file: every read
+// either succeeds with a well-formed mesh or throws InputError or IoError.
+// Under AddressSanitizer (the fast label) this also checks for memory errors.
+TEST(SurfaceImporter, SurvivesRandomCorruptions)
+{
+    const TempDir tmp;
+    std::vector<std::pair<std::string, std::string>> files;
+    for (const Variant& v : variants()) files.push_back({v.name, v.text(icosphere(1))});
+    {
+        // A binary STL of the same sphere.
+        std::string stl(80, ' ');
+        const PolyMesh m = icosphere(1);
+        put(stl, static_cast<uint32_t>(m.faces.size()), false);
+        for (const auto& f : m.faces) {
+            for (int k = 0; k < 3; ++k) put(stl, 0.0f, false);
+            for (int32_t v : f)
+                for (int k = 0; k < 3; ++k) put(stl, static_cast<float>(m.points[v][k]), false);
+            stl += std::string(2, '\0');
+        }
+        files.push_back({"binary.stl", stl});
+    }
+    std::mt19937 random(20240611);
+    for (const auto& [name, good] : files) {
+        // Gmsh opens a session per read: fewer rounds keep the test fast.
+        const int rounds = name.ends_with(".msh") ? 120 : 300;
+        int errors = 0, reads = 0;
+        for (int round = 0; round < rounds; ++round) {
+            std::string bad = good;
+            switch (round % 4) {
+            case 0: // a few bytes overwritten
+            case 1:
+                for (int k = 0, n = 1 + static_cast<int>(random() % 4); k < n; ++k)
+                    bad[random() % bad.size()] = static_cast<char>(random() % 256);
+                break;
+            case 2: // truncated
+                bad.resize(random() % bad.size());
+                break;
+            case 3: { // a digit or byte changed into another plausible one
+                const size_t at = random() % bad.size();
+                bad[at] = "0123456789-.e \n9"[random() % 16];
+                break;
+            }
+            }
+            const auto path = tmp.path / ("fuzz-" + name);
+            write_text(path, bad);
+            try {
+                const SurfaceMesh mesh = read_surface(path);
+                expect_well_formed(mesh, name + " round " + std::to_string(round));
+                ++reads;
+            } catch (const InputError&) {
+                ++errors;
+            } catch (const IoError&) {
+                ++errors;
+            } catch (const std::exception& e) {
+                ADD_FAILURE() << name << " round " << round << ": unexpected " << typeid(e).name() << ": " << e.what();
+            }
+        }
+        EXPECT_GT(errors, 0) << name << ": some corruptions must be refused";
+        EXPECT_EQ(errors + reads, rounds) << name;
+    }
+}
+
+} // namespace
+} // namespace scalemesh
