@@ -1,10 +1,13 @@
 #include "pipeline/case_config.h"
 
 #include "core/errors.h"
+#include "importers/surface_importer.h"
 #include "phantom/phantom.h"
 
 #include <toml++/toml.h>
 
+#include <algorithm>
+#include <cctype>
 #include <climits>
 #include <cmath>
 #include <fstream>
@@ -121,8 +124,14 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
         throw InputError(msg.str(), "fix the TOML syntax at that line");
     }
     static const std::vector<std::string> sections = {"input",  "smoothing", "sizing", "remeshing",
-                                                      "volume", "flow",      "output", "run"};
+                                                      "volume", "flow",      "output", "run", "openings"};
     for (const auto& [key, value] : root) {
+        if (key.str() == "openings") {
+            if (!value.is_array_of_tables())
+                throw InputError(source + ": 'openings' must be an array of tables",
+                                 "write each opening as a [[openings]] table (see docs/case-file.md)");
+            continue;
+        }
         if (std::find(sections.begin(), sections.end(), std::string(key.str())) == sections.end() || !value.is_table())
             throw InputError(source + ": '" + std::string(key.str()) + "' is not a known section",
                              "the sections are: [" + join(sections) + "]");
@@ -133,7 +142,7 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
 
     const Section input(root["input"].as_table(), "input", source,
                         {"phantom", "file", "voxel_size", "noise", "seed", "grid", "iso", "connectivity", "labels",
-                         "threshold", "level_set"});
+                         "threshold", "level_set", "units"});
     config.phantom = input.get<std::string>("phantom").value_or("");
     config.file = input.get<std::string>("file").value_or("");
     if (config.phantom.empty() == config.file.empty())
@@ -171,6 +180,18 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
         throw InputError(input.where("connectivity") + " = " + std::to_string(connectivity) + " is not valid",
                          "choose 6 (diagonal voxels stay apart, the default) or 26 (they join)");
     config.connectivity = connectivity == 6 ? InsideConnectivity::Six : InsideConnectivity::TwentySix;
+    if (input.has("units")) {
+        if (!is_surface_file(config.file))
+            throw InputError(input.where("units") + " applies to surface files (.stl, .ply, .obj, .vtp, .msh) only",
+                             "images carry their own spacing and phantoms are in mm; remove the key");
+        config.units = *input.get<std::string>("units");
+        try {
+            config.units_to_mm = unit_to_mm(config.units);
+        } catch (const InputError&) {
+            throw InputError(input.where("units") + " = \"" + config.units + "\" is not a unit",
+                             "choose \"mm\" (the default), \"cm\", \"m\" or \"um\"");
+        }
+    }
 
     const Section smoothing(root["smoothing"].as_table(), "smoothing", source, {"sweeps", "omega", "max_displacement"});
     const int64_t sweeps = smoothing.get<int64_t>("sweeps").value_or(10);
@@ -203,6 +224,81 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
     const Section volume(root["volume"].as_table(), "volume", source, {"enabled", "growth"});
     config.volume = volume.get<bool>("enabled").value_or(true);
     config.growth = volume.number("growth", 1.0, 1.0, 3.0);
+
+    if (const toml::array* openings = root["openings"].as_array()) {
+        std::set<std::string> names;
+        for (size_t i = 0; i < openings->size(); ++i) {
+            const toml::table* table = (*openings)[i].as_table();
+            const Section opening(table, "openings] [" + std::to_string(i + 1), source,
+                                  {"name", "type", "point", "normal", "radius", "border", "inset", "extension"});
+            CaseConfig::Opening item;
+            OpeningSpec& spec = item.spec;
+            spec.name = opening.get<std::string>("name").value_or("");
+            const bool word = !spec.name.empty() && !std::isdigit(static_cast<unsigned char>(spec.name[0])) &&
+                              std::all_of(spec.name.begin(), spec.name.end(), [](char c) {
+                                  return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
+                              });
+            if (!word)
+                throw InputError(opening.where("name") + " = \"" + spec.name + "\" is not a valid patch name",
+                                 "give a name of letters, digits and '_' not starting with a digit, e.g. \"inlet\"");
+            if (spec.name == "wall")
+                throw InputError(opening.where("name") + " = \"wall\" is the name of the vessel wall",
+                                 "choose another name, e.g. \"inlet\"");
+            if (!names.insert(spec.name).second)
+                throw InputError(opening.where("name") + ": two openings are named '" + spec.name + "'",
+                                 "give every opening its own name");
+            const std::string type = opening.get<std::string>("type").value_or("");
+            if (type != "inlet" && type != "outlet")
+                throw InputError(opening.where("type") + " = \"" + type + "\" is not an opening type",
+                                 "choose \"inlet\" or \"outlet\"");
+            spec.type = type == "inlet" ? OpeningType::Inlet : OpeningType::Outlet;
+            const auto vector = [&](const std::string& key) {
+                const toml::array* xyz = (*table)[key].as_array();
+                Vec3 out;
+                if (!xyz || xyz->size() != 3)
+                    throw InputError(opening.where(key) + " must be a list of 3 numbers", "write " + key + " = [0, 0, 1]");
+                for (size_t k = 0; k < 3; ++k) {
+                    const auto value = (*xyz)[k].value<double>();
+                    if (!value || !std::isfinite(*value))
+                        throw InputError(opening.where(key) + " must be a list of 3 numbers", "write " + key + " = [0, 0, 1]");
+                    out[static_cast<int>(k)] = *value;
+                }
+                return out;
+            };
+            const bool plane = opening.has("point") || opening.has("normal");
+            if (plane == opening.has("border"))
+                throw InputError(source + ": opening '" + spec.name + "' needs either point and normal (a clip plane) "
+                                 "or border (a side of the image)",
+                                 "write point = [x, y, z] and normal = [nx, ny, nz] in mm, or border = \"z-\"");
+            if (plane) {
+                if (!opening.has("point") || !opening.has("normal"))
+                    throw InputError(source + ": opening '" + spec.name + "' needs both point and normal",
+                                     "write point = [x, y, z] (mm) and normal = [nx, ny, nz] (pointing out of the lumen)");
+                spec.plane.point = vector("point");
+                const Vec3 normal = vector("normal");
+                if (!(norm(normal) > 0))
+                    throw InputError(opening.where("normal") + " is the zero vector",
+                                     "give the direction pointing out of the lumen, e.g. [0, 0, 1]");
+                spec.plane.normal = normalized(normal);
+                spec.radius = opening.number("radius", 0, 0, 1e9);
+                if (opening.has("inset"))
+                    throw InputError(opening.where("inset") + " applies to border openings only", "remove it");
+            } else {
+                spec.border = true;
+                spec.side = opening.get<std::string>("border").value_or("");
+                static const std::vector<std::string> sides = {"x-", "x+", "y-", "y+", "z-", "z+"};
+                if (std::find(sides.begin(), sides.end(), spec.side) == sides.end())
+                    throw InputError(opening.where("border") + " = \"" + spec.side + "\" is not a side of the image",
+                                     "choose one of: " + join(sides));
+                if (opening.has("radius"))
+                    throw InputError(opening.where("radius") + " applies to clip planes only",
+                                     "remove it: every piece of the border cross-section becomes an opening");
+                if (opening.has("inset")) item.inset = opening.length("inset");
+            }
+            spec.extension = opening.number("extension", 0, 0, 100);
+            config.openings.push_back(item);
+        }
+    }
 
     const Section flow(root["flow"].as_table(), "flow", source, {"viscosity", "inlet_speed"});
     config.viscosity = flow.number("viscosity", config.viscosity, 0, 1, true);

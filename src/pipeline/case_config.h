@@ -4,6 +4,7 @@
 // keys and values out of range are refused with the valid choices.
 
 #include "isosurface/marching_cubes.h"
+#include "openings/openings.h"
 #include "smoothing/volume_conserving_smoothing.h"
 
 #include <filesystem>
@@ -38,6 +39,8 @@ struct CaseConfig {
     bool level_set = false;         // medical images: the values are a signed distance, negative inside
     std::optional<double> iso;      // default 0 for level sets, 0.5 for labels
     InsideConnectivity connectivity = InsideConnectivity::Six;
+    std::string units = "mm";       // surface files only: the unit of their coordinates, "mm", "cm", "m" or "um"
+    double units_to_mm = 1.0;       // the factor `units` gives (importers/surface_importer.h, unit_to_mm)
 
     // [smoothing], Algorithm 6's first step; max_displacement is set from
     // smoothing_reach once the voxel width is known.
@@ -58,6 +61,14 @@ struct CaseConfig {
     // [volume], Algorithms 4 and 5, section 2.4.
     bool volume = true;             // build the layered volume mesh
     double growth = 1.0;            // layer thickness ratio, >= 1; 1 = uniform layers as in the paper
+
+    // [[openings]]: inlets and outlets, in the order they are cut. A border
+    // opening's inset is resolved to mm with the voxel width (default 2 voxels).
+    struct Opening {
+        OpeningSpec spec;
+        Length inset{2.0, true};
+    };
+    std::vector<Opening> openings;
 
     // [flow], the OpenFOAM case (SI units).
     double viscosity = 3.3e-6;      // m^2/s, kinematic; blood about 3.3e-6

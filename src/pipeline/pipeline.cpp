@@ -2,7 +2,7 @@
 
 #include "core/errors.h"
 #include "importers/image_importer.h"
-#include "importers/stl_importer.h"
+#include "importers/surface_importer.h"
 #include "importers/vdb_importer.h"
 #include "isosurface/marching_cubes.h"
 #include "phantom/phantom.h"
@@ -121,14 +121,17 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
 {
     PipelineRun run;
     SurfaceMesh surface;
+    // Index-to-world map of the image, for border openings; for a surface
+    // input the world axes with voxel-width steps.
+    ImageFrame frame;
     const std::filesystem::path file = config.file.empty() || config.file.is_absolute() || config.directory == "."
                                            ? config.file
                                            : config.directory / config.file;
     const std::string ext = file.extension().string();
 
-    if (!config.file.empty() && (ext == ".stl" || ext == ".STL")) {
+    if (!config.file.empty() && is_surface_file(file)) {
         StageClock clock(run, listener, "import");
-        surface = read_stl(file);
+        surface = read_surface(file, config.units_to_mm);
         require_closed_manifold(surface, file.string());
         const bool flipped = orient_outward(surface);
         run.input = file.string();
@@ -136,6 +139,7 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
         run.voxel_width = mean_edge_length(surface);
         run.isosurface = surface_facts(surface);
         clock.done("read " + std::to_string(surface.triangles.size()) + " triangles" +
+                   (config.units == "mm" ? "" : " in " + config.units + ", scaled to mm") +
                    (flipped ? ", wound inwards: reversed" : ""));
     } else {
         openvdb::FloatGrid::Ptr grid;
@@ -156,7 +160,16 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
             } else {
                 throw InputError("cannot read '" + file.string() + "': unknown input format '" + ext + "'",
                                  "give an image (.vdb, .nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd) or a closed "
-                                 "surface (.stl)");
+                                 "surface (.stl, .ply, .obj, .vtp, .msh)");
+            }
+            const openvdb::math::Transform& transform = grid->transform();
+            const openvdb::Vec3d origin = transform.indexToWorld(openvdb::Vec3d(0, 0, 0));
+            frame.origin = {origin.x(), origin.y(), origin.z()};
+            for (int k = 0; k < 3; ++k) {
+                openvdb::Vec3d unit(0, 0, 0);
+                unit[k] = 1;
+                const openvdb::Vec3d axis = transform.indexToWorld(unit) - origin;
+                frame.axis[k] = {axis.x(), axis.y(), axis.z()};
             }
             const openvdb::Vec3d spacing = grid->voxelSize();
             run.voxel_width = std::min({spacing.x(), spacing.y(), spacing.z()});
@@ -180,6 +193,31 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
                    ", volume change " + std::to_string(run.facts.signed_volume - run.isosurface.signed_volume) + " mm^3");
     }
 
+    if (!config.openings.empty()) {
+        StageClock clock(run, listener, "openings");
+        if (!config.file.empty() && is_surface_file(file)) {
+            // No image: border sides follow the world axes.
+            for (int k = 0; k < 3; ++k) {
+                frame.axis[k] = Vec3{0, 0, 0};
+                frame.axis[k][k] = run.voxel_width;
+            }
+        }
+        std::vector<OpeningSpec> specs;
+        for (const CaseConfig::Opening& opening : config.openings) {
+            specs.push_back(opening.spec);
+            specs.back().inset = opening.inset.mm(run.voxel_width);
+        }
+        CappedSurface capped = cut_and_cap(surface, specs, frame);
+        surface = std::move(capped.surface);
+        run.caps = std::move(capped.caps);
+        run.opened = surface_facts(surface);
+        std::ostringstream summary;
+        summary << run.caps.size() << " cap" << (run.caps.size() == 1 ? "" : "s") << ":";
+        for (const Cap& cap : run.caps) summary << " " << cap.name << " (" << cap.area << " mm^2)";
+        summary << "; " << describe(run.opened);
+        clock.done(summary.str());
+    }
+
     run.L_min = config.L_min.mm(run.voxel_width);
     if (config.L_max) {
         run.L_max = config.L_max->mm(run.voxel_width);
@@ -195,7 +233,8 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
 
     if (options.sizing) {
         StageClock clock(run, listener, "sizing");
-        run.sizing = compute_feature_size(surface, sizing_params(config, run));
+        run.sizing = run.caps.empty() ? compute_feature_size(surface, sizing_params(config, run))
+                                      : cap_feature_size(surface, run.caps, sizing_params(config, run));
         const auto [dmin, dmax] = std::minmax_element(run.sizing->d.begin(), run.sizing->d.end());
         std::ostringstream summary;
         summary << "d in [" << *dmin << ", " << *dmax << "] mm, " << run.sizing->D.size() * 2 << " rays";
@@ -210,6 +249,7 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
     remesh.cycles = config.remesh_cycles;
     remesh.max_displacement = config.smoothing_reach.mm(run.voxel_width);
     remesh.sizing = sizing_params(config, run);
+    remesh.patch_normals = patch_normals(run.caps);
     VolumeParams volume;
     volume.K = config.K;
     volume.M = config.M;
@@ -224,6 +264,14 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
         {
             StageClock clock(run, listener, attempt == 0 ? "remeshing" : "remeshing (retry " + std::to_string(attempt) + ")");
             run.remeshed = remesh_to_feature_size(run.surface, d, remesh);
+            if (!run.caps.empty()) {
+                // The stable d with the cap rules, then each cap rebuilt
+                // from its rim's layer points (section 3's layers across
+                // the opening).
+                run.remeshed->sizing = cap_feature_size(run.remeshed->surface, run.caps, remesh.sizing);
+                run.remeshed->surface = ring_caps(run.remeshed->surface, run.caps, run.remeshed->sizing,
+                                                  {.M = config.M, .growth = config.growth, .L_max = run.L_max});
+            }
             const SurfaceFacts facts = surface_facts(run.remeshed->surface);
             std::ostringstream summary;
             summary << run.remeshed->merges << " merges, " << run.remeshed->swaps << " swaps, "
@@ -273,6 +321,8 @@ std::vector<VertexField> surface_fields(const PipelineRun& run, double K, double
 TetMesh export_mesh(const PipelineRun& run, double K, double M)
 {
     TetMesh mesh = run.volume->mesh;
+    mesh.patch_names = {"wall"};
+    for (const Cap& cap : run.caps) mesh.patch_names.push_back(cap.name);
     mesh.point_fields = surface_fields(run, K, M);
     std::vector<double> aspect(mesh.tets.size()), layer(mesh.tets.size());
     for (size_t t = 0; t < mesh.tets.size(); ++t) {

@@ -5,6 +5,7 @@
 // order of the stages.
 
 #include "core/surface_mesh.h"
+#include "openings/openings.h"
 #include "pipeline/case_config.h"
 #include "remeshing/remesh.h"
 #include "sizing/feature_size.h"
@@ -33,8 +34,10 @@ struct PipelineRun {
                                   // input the mean edge length of its triangles
     int64_t inside_voxels = -1;   // active voxels of the label (phantoms and label grids)
     SurfaceFacts isosurface;      // facts of the surface before smoothing
-    SurfaceMesh surface;          // after smoothing
-    SurfaceFacts facts;           // facts of `surface`
+    SurfaceMesh surface;          // after smoothing, and cut and capped at the openings
+    std::vector<Cap> caps;        // the openings' caps: cap i is surface patch i + 1
+    SurfaceFacts opened;          // facts of `surface` after the openings were cut (facts: before)
+    SurfaceFacts facts;           // facts of the smoothed surface
     std::optional<FeatureSize> sizing;    // on `surface`
     double L_min = 0, L_max = 0;  // mm, as used by sizing
     std::optional<RemeshResult> remeshed; // the surface remeshed to K/M d, with its stable d

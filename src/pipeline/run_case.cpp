@@ -3,6 +3,7 @@
 #include "core/atomic_file.h"
 #include "core/errors.h"
 #include "core/version.h"
+#include "exporters/histogram_png.h"
 #include "exporters/openfoam_case.h"
 #include "exporters/polymesh_writer.h"
 #include "exporters/surface_writers.h"
@@ -82,6 +83,64 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
     report["stages"] = stages;
     report["isosurface"] = facts_json(run.isosurface);
     report["surface"] = facts_json(run.facts);
+    if (!run.caps.empty()) {
+        // Per opening: its plane; on the final surface the area its rim
+        // encloses (from the rim edges alone) and how far the cap's vertices
+        // lie from the plane; in the volume mesh the faces on its patch and
+        // their area.
+        const SurfaceMesh& final = final_surface(run);
+        nlohmann::json openings = nlohmann::json::array();
+        for (const Cap& cap : run.caps) {
+            std::vector<std::array<int32_t, 2>> edges;
+            double off_plane = 0;
+            for (size_t f = 0; f < final.triangles.size(); ++f) {
+                if (final.triangle_patch.empty() || final.triangle_patch[f] != cap.patch) continue;
+                const Triangle& t = final.triangles[f];
+                for (int k = 0; k < 3; ++k) {
+                    edges.push_back({t[k], t[(k + 1) % 3]});
+                    off_plane = std::max(off_plane, std::abs(cap.plane.signed_distance(final.points[t[k]])));
+                }
+            }
+            std::sort(edges.begin(), edges.end());
+            double rim_area = 0;
+            int64_t rim_edges = 0;
+            for (const auto& e : edges)
+                if (!std::binary_search(edges.begin(), edges.end(), std::array<int32_t, 2>{e[1], e[0]})) {
+                    rim_area += 0.5 * dot(cross(final.points[e[0]] - cap.plane.point, final.points[e[1]] - cap.plane.point),
+                                          cap.plane.normal);
+                    ++rim_edges;
+                }
+            nlohmann::json item = {{"name", cap.name},
+                                   {"type", cap.type == OpeningType::Inlet ? "inlet" : "outlet"},
+                                   {"patch", cap.patch},
+                                   {"point_mm", {cap.plane.point.x, cap.plane.point.y, cap.plane.point.z}},
+                                   {"normal", {cap.plane.normal.x, cap.plane.normal.y, cap.plane.normal.z}},
+                                   {"cut_area_mm2", cap.area},
+                                   {"rim_edges", rim_edges},
+                                   {"rim_area_mm2", rim_area},
+                                   {"max_distance_from_plane_mm", off_plane}};
+            if (run.volume) {
+                const TetMesh& mesh = run.volume->mesh;
+                int64_t faces = 0;
+                double area = 0, mesh_off_plane = 0;
+                for (size_t f = 0; f < mesh.boundary_faces.size(); ++f) {
+                    if (mesh.boundary_patch.empty() || mesh.boundary_patch[f] != cap.patch) continue;
+                    const auto& t = mesh.boundary_faces[f];
+                    const Vec3& a = mesh.points[t[0]];
+                    area += 0.5 * dot(cross(mesh.points[t[1]] - a, mesh.points[t[2]] - a), cap.plane.normal);
+                    for (int32_t v : t)
+                        mesh_off_plane = std::max(mesh_off_plane, std::abs(cap.plane.signed_distance(mesh.points[v])));
+                    ++faces;
+                }
+                item["mesh_faces"] = faces;
+                item["mesh_area_mm2"] = area;
+                item["mesh_max_distance_from_plane_mm"] = mesh_off_plane;
+            }
+            openings.push_back(item);
+        }
+        report["openings"] = openings;
+        report["opened_surface"] = facts_json(run.opened);
+    }
     if (run.sizing) {
         const FeatureSize& s = *run.sizing;
         report["sizing"] = {{"D_mm", field_stats(s.D)},
@@ -185,15 +244,27 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
             if (std::filesystem::path(name).extension() == ".vtk") write_volume_vtk(mesh, stage(name));
             else write_volume_msh(mesh, stage(name), {.msh_version = config.msh_version, .binary = config.msh_binary});
         }
+        // Fig. 19: the aspect-ratio histograms before and after improvement.
+        const VolumeResult& v = *result.run.volume;
+        const auto bins = [](const QualityReport& q) { return std::vector<int64_t>(q.histogram.begin(), q.histogram.end()); };
+        write_histogram_png({{"before flips", bins(v.before_flips)},
+                             {"after flips", bins(v.after_flips)},
+                             {"after sliver removal", bins(v.after_slivers)}},
+                            stage("quality.png"));
         if (config.openfoam) {
+            // Walls are OpenFOAM `wall` patches, openings generic `patch`es.
+            std::vector<std::string> types = {"wall"};
+            for (size_t c = 0; c < result.run.caps.size(); ++c) types.push_back("patch");
             const PolyMeshCounts counts =
-                write_polymesh(mesh, dir, {.binary = config.openfoam_binary, .scale = 1e-3, .patch_types = {}});
+                write_polymesh(mesh, dir, {.binary = config.openfoam_binary, .scale = 1e-3, .patch_types = types});
             result.polymesh = counts;
             std::vector<std::string> names;
             std::vector<PatchRole> roles;
             for (size_t p = 0; p < counts.patch_faces.size(); ++p) {
                 names.push_back(p < mesh.patch_names.size() ? mesh.patch_names[p] : (p == 0 ? "wall" : "patch_" + std::to_string(p)));
-                roles.push_back(PatchRole::Wall);
+                roles.push_back(p == 0 || p > result.run.caps.size() ? PatchRole::Wall
+                                : result.run.caps[p - 1].type == OpeningType::Inlet ? PatchRole::Inlet
+                                                                                    : PatchRole::Outlet);
             }
             result.flow_case = write_openfoam_case(dir, names, roles,
                                                    {.kinematic_viscosity = config.viscosity,

@@ -93,6 +93,7 @@ TEST_P(SampleCase, RunsAndMeetsItsExpectedBounds)
         ASSERT_NE(table, std::string::npos) << text;
         std::istringstream rows(text.substr(text.find('\n', table) + 1));
         const nlohmann::json& expected_faces = report["openfoam"]["patch_faces"];
+        std::vector<std::string> patch_names;
         for (size_t p = 0; p < expected_faces.size(); ++p) {
             std::string name;
             long faces = -1;
@@ -100,7 +101,13 @@ TEST_P(SampleCase, RunsAndMeetsItsExpectedBounds)
             std::string rest;
             std::getline(rows, rest);
             EXPECT_EQ(faces, expected_faces[p].get<long>()) << "patch " << name;
+            patch_names.push_back(name);
         }
+        // The patches are the wall and the openings, named as in the case file.
+        std::vector<std::string> expected_names = {"wall"};
+        if (const toml::array* names = expected["openings"]["names"].as_array())
+            for (const auto& n : *names) expected_names.push_back(*n.value<std::string>());
+        EXPECT_EQ(patch_names, expected_names);
         // checkMesh works in metres, the report in mm.
         EXPECT_NEAR(std::stod(volume[1]) * 1e9, report["volume"]["volume_mm3"].get<double>(),
                     1e-6 * report["volume"]["volume_mm3"].get<double>());
@@ -127,6 +134,37 @@ TEST_P(SampleCase, RunsAndMeetsItsExpectedBounds)
             else ADD_FAILURE() << "unknown key [volume] " << k << " in expected.toml";
         }
     }
+    if (const toml::table* openings = expected["openings"].as_table()) {
+        ASSERT_TRUE(report.contains("openings")) << "no openings in the report";
+        const nlohmann::json& caps = report["openings"];
+        for (const auto& [key, value] : *openings) {
+            const std::string k(key.str());
+            if (k == "names") {
+                std::vector<std::string> names;
+                for (const auto& cap : caps) names.push_back(cap["name"].get<std::string>());
+                std::vector<std::string> want;
+                for (const auto& n : *value.as_array()) want.push_back(*n.value<std::string>());
+                EXPECT_EQ(names, want);
+            } else if (k == "plane_tolerance") {
+                // Every cap vertex on its plane, relative to the cap's size.
+                for (const auto& cap : caps) {
+                    const double size = std::sqrt(cap["rim_area_mm2"].get<double>());
+                    EXPECT_LE(cap["max_distance_from_plane_mm"].get<double>(), *value.value<double>() * size) << cap["name"];
+                    EXPECT_LE(cap["mesh_max_distance_from_plane_mm"].get<double>(), *value.value<double>() * size)
+                        << cap["name"];
+                }
+            } else if (k == "area_tolerance") {
+                // The volume mesh's faces on the patch cover exactly what the rim encloses.
+                for (const auto& cap : caps) {
+                    const double rim = cap["rim_area_mm2"].get<double>();
+                    EXPECT_GT(cap["mesh_faces"].get<int64_t>(), 0) << cap["name"];
+                    EXPECT_NEAR(cap["mesh_area_mm2"].get<double>(), rim, *value.value<double>() * rim) << cap["name"];
+                }
+            } else ADD_FAILURE() << "unknown key [openings] " << k << " in expected.toml";
+        }
+        EXPECT_TRUE(std::filesystem::exists(dir / "0" / "U"));
+        EXPECT_TRUE(std::filesystem::exists(dir / "0" / "p"));
+    }
     if (const toml::table* sizing = expected["sizing"].as_table()) {
         const nlohmann::json& s = report["sizing"];
         for (const auto& [key, value] : *sizing) {
@@ -147,21 +185,6 @@ TEST_P(SampleCase, RunsAndMeetsItsExpectedBounds)
 
 INSTANTIATE_TEST_SUITE_P(Cases, SampleCase, ::testing::ValuesIn(case_names()),
                          [](const auto& info) { return info.param; });
-
-} // namespace
-} // namespace scalemesh
-
-namespace scalemesh {
-namespace {
-
-// Issue 6: simpleFoam converges on the tube case with our system/ and 0/.
-// The flow set-up itself is tested on a hand-made channel with an inlet and
-// an outlet (tests/exporters/openfoam_case_test.cpp).
-TEST(SampleCaseFlow, TubeWithInletAndOutletConvergesWithSimpleFoam)
-{
-    GTEST_SKIP() << "pending (issue 7): the tube case has no inlet or outlet yet (openings do not exist), so its "
-                    "boundary is one wall patch and no flow fields are written";
-}
 
 } // namespace
 } // namespace scalemesh
