@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <fstream>
 #include <sstream>
+#include <tuple>
 
 namespace scalemesh {
 
@@ -97,6 +98,49 @@ int64_t refine_near(const SurfaceMesh& surface, const SurfaceMesh& remeshed, con
             }
     }
     return changed;
+}
+
+// With openings, a separate region of the lumen that no opening reaches
+// carries no flow and leaves the pressure equation without a reference there
+// (simpleFoam fails on it): the components of the surface that bound such a
+// region from outside (positive enclosed volume, no cap triangle) are removed.
+// A component with negative volume is the wall of a cavity inside another
+// region and stays. Returns how many components were removed and their volume.
+std::pair<int64_t, double> drop_closed_regions(SurfaceMesh& surface)
+{
+    int32_t count = 0;
+    const std::vector<int32_t> component = triangle_components(surface, &count);
+    std::vector<double> volume(count, 0.0);
+    std::vector<char> capped(count, 0);
+    for (size_t f = 0; f < surface.triangles.size(); ++f) {
+        const Triangle& t = surface.triangles[f];
+        volume[component[f]] += dot(surface.points[t[0]], cross(surface.points[t[1]], surface.points[t[2]])) / 6.0;
+        if (!surface.triangle_patch.empty() && surface.triangle_patch[f] != 0) capped[component[f]] = 1;
+    }
+    std::vector<char> drop(count, 0);
+    int64_t dropped = 0;
+    double dropped_volume = 0;
+    for (int32_t c = 0; c < count; ++c)
+        if (!capped[c] && volume[c] > 0) drop[c] = 1, ++dropped, dropped_volume += volume[c];
+    if (dropped == 0) return {0, 0.0};
+
+    SurfaceMesh kept;
+    std::vector<int32_t> index(surface.points.size(), -1);
+    for (size_t f = 0; f < surface.triangles.size(); ++f) {
+        if (drop[component[f]]) continue;
+        Triangle t = surface.triangles[f];
+        for (int32_t& v : t) {
+            if (index[v] < 0) {
+                index[v] = static_cast<int32_t>(kept.points.size());
+                kept.points.push_back(surface.points[v]);
+            }
+            v = index[v];
+        }
+        kept.triangles.push_back(t);
+        if (!surface.triangle_patch.empty()) kept.triangle_patch.push_back(surface.triangle_patch[f]);
+    }
+    surface = std::move(kept);
+    return {dropped, dropped_volume};
 }
 
 // Algorithm 1's parameters for a case, with L_min and L_max in mm as the run
@@ -210,10 +254,15 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
         CappedSurface capped = cut_and_cap(surface, specs, frame);
         surface = std::move(capped.surface);
         run.caps = std::move(capped.caps);
+        std::tie(run.closed_regions_dropped, run.closed_regions_volume) = drop_closed_regions(surface);
         run.opened = surface_facts(surface);
         std::ostringstream summary;
         summary << run.caps.size() << " cap" << (run.caps.size() == 1 ? "" : "s") << ":";
         for (const Cap& cap : run.caps) summary << " " << cap.name << " (" << cap.area << " mm^2)";
+        if (run.closed_regions_dropped > 0)
+            summary << "; " << run.closed_regions_dropped << " separate region"
+                    << (run.closed_regions_dropped == 1 ? "" : "s") << " without an opening left out ("
+                    << run.closed_regions_volume << " mm^3)";
         summary << "; " << describe(run.opened);
         clock.done(summary.str());
     }

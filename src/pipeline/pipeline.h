@@ -37,6 +37,8 @@ struct PipelineRun {
     SurfaceMesh surface;          // after smoothing, and cut and capped at the openings
     std::vector<Cap> caps;        // the openings' caps: cap i is surface patch i + 1
     SurfaceFacts opened;          // facts of `surface` after the openings were cut (facts: before)
+    int64_t closed_regions_dropped = 0;    // separate regions without an opening, left out of the mesh
+    double closed_regions_volume = 0;      // mm^3 they enclosed
     SurfaceFacts facts;           // facts of the smoothed surface
     std::optional<FeatureSize> sizing;    // on `surface`
     double L_min = 0, L_max = 0;  // mm, as used by sizing

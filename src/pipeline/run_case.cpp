@@ -140,6 +140,7 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
         }
         report["openings"] = openings;
         report["opened_surface"] = facts_json(run.opened);
+        report["closed_regions_dropped"] = {{"count", run.closed_regions_dropped}, {"volume_mm3", run.closed_regions_volume}};
     }
     if (run.sizing) {
         const FeatureSize& s = *run.sizing;

@@ -160,6 +160,11 @@ TEST_P(SampleCase, RunsAndMeetsItsExpectedBounds)
                     EXPECT_GT(cap["mesh_faces"].get<int64_t>(), 0) << cap["name"];
                     EXPECT_NEAR(cap["mesh_area_mm2"].get<double>(), rim, *value.value<double>() * rim) << cap["name"];
                 }
+            } else if (k == "closed_regions_dropped") {
+                // Separate regions no opening reaches are left out of the mesh.
+                EXPECT_EQ(report["closed_regions_dropped"]["count"].get<int64_t>(), *value.value<int64_t>());
+                EXPECT_EQ(report["opened_surface"]["components"].get<int64_t>(),
+                          report["surface"]["components"].get<int64_t>() - *value.value<int64_t>());
             } else ADD_FAILURE() << "unknown key [openings] " << k << " in expected.toml";
         }
         EXPECT_TRUE(std::filesystem::exists(dir / "0" / "U"));
