@@ -272,6 +272,7 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
                                                     .inlet_speed = config.inlet_speed});
             result.written.push_back(dir / "constant" / "polyMesh");
             result.written.push_back(dir / "system");
+            if (result.flow_case) result.written.push_back(dir / "0");
         }
     }
 
