@@ -1,8 +1,13 @@
 #include "exporters/gmsh_session.h"
 
+#include "core/atomic_file.h"
+#include "core/errors.h"
+
 #include <gmsh.h>
 
 #include <atomic>
+#include <cstdio>
+#include <fstream>
 
 namespace scalemesh {
 
@@ -98,6 +103,32 @@ int ScratchModel::add_view(const std::string& view_name)
 void ScratchModel::adopt_views(const std::vector<int>& tags)
 {
     views_.insert(views_.end(), tags.begin(), tags.end());
+}
+
+void insert_msh_comments(const std::filesystem::path& path, const std::vector<std::string>& lines)
+{
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw IoError(path.string(), "cannot reopen the written file");
+    AtomicOutput copy(path); // a second temporary name, removed on failure or interruption
+    std::ofstream out(copy.temporary(), std::ios::binary);
+    if (!out) throw IoError(copy.temporary().string(), "cannot create the file");
+    std::string line;
+    bool inserted = false;
+    while (!inserted && std::getline(in, line)) {
+        out << line << '\n';
+        if (line.rfind("$EndMeshFormat", 0) == 0) {
+            out << "$Comments\n";
+            for (const std::string& comment : lines) out << comment << '\n';
+            out << "$EndComments\n";
+            inserted = true;
+        }
+    }
+    if (!inserted) throw IoError(path.string(), "no $EndMeshFormat line: not a .msh file");
+    if (in.peek() != std::ifstream::traits_type::eof()) out << in.rdbuf(); // the rest, binary or not, unchanged
+    out.close();
+    if (!out) throw IoError(copy.temporary().string(), "cannot write the file");
+    in.close();
+    copy.commit();
 }
 
 } // namespace scalemesh

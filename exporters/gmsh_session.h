@@ -8,6 +8,7 @@
 // finalizes it, and nested sessions share it. Code that calls gmsh::initialize
 // directly must not hold Gmsh while a GmshSession is open.
 
+#include <filesystem>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -61,5 +62,12 @@ private:
     std::string previous_;
     std::vector<int> views_;
 };
+
+// Inserts a $Comments section right after the $MeshFormat section of the
+// .msh file at `path` (ASCII or binary: the header is text either way).
+// Gmsh, like gmshToFoam, skips sections it does not know, so the lines are
+// for people and provenance tools only. Lines must not begin with '$'.
+// Throws IoError.
+void insert_msh_comments(const std::filesystem::path& path, const std::vector<std::string>& lines);
 
 } // namespace scalemesh

@@ -34,9 +34,10 @@ public:
         if (!out.flush()) throw IoError(path.string(), "cannot write the file");
     }
 
-    void commit()
+    void commit(StagedOutputs* staged)
     {
-        for (auto& out : outputs_) out->commit();
+        if (!staged) return commit_all(outputs_);
+        for (auto& out : outputs_) staged->push_back(std::move(out));
     }
 
 private:
@@ -138,7 +139,7 @@ bool write_openfoam_case(const std::filesystem::path& case_dir, const std::vecto
         files.add("0/U", U.str());
         files.add("0/p", p.str());
     }
-    files.commit();
+    files.commit(settings.staged);
     return flow;
 }
 

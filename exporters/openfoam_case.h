@@ -2,6 +2,8 @@
 // A runnable OpenFOAM case around a written polyMesh: system/, constant/ and
 // 0/ for steady, laminar, incompressible flow with simpleFoam (OpenFOAM v1912).
 
+#include "core/atomic_file.h"
+
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -14,6 +16,9 @@ struct FlowSettings {
     double kinematic_viscosity = 3.3e-6; // m^2/s; blood is about 3.3e-6, air 1.5e-5
     double inlet_speed = 0.1;            // m/s, uniform (plug) inflow normal to each inlet
     int iterations = 2000;               // SIMPLE iterations at most; residual control stops earlier
+    // As PolyMeshOptions::staged: where given, the files are handed over
+    // uncommitted.
+    StagedOutputs* staged = nullptr;
 };
 
 // Writes system/{controlDict,fvSchemes,fvSolution}, constant/{transportProperties,

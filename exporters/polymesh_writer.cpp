@@ -265,7 +265,11 @@ PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& 
         out << ")\n";
         w.finish(dir / "boundary");
     }
-    for (auto& out : outputs) out->commit();
+    if (options.staged) {
+        for (auto& out : outputs) options.staged->push_back(std::move(out));
+    } else {
+        commit_all(outputs);
+    }
     return counts;
 }
 

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "core/atomic_file.h"
+
 namespace scalemesh {
 
 struct PolyMeshOptions {
@@ -15,6 +17,10 @@ struct PolyMeshOptions {
     double scale = 1.0;  // coordinates are multiplied by this: 1e-3 writes a mesh in mm as metres
     // Patch type per patch id ("wall" or "patch"); ids not listed are "wall".
     std::vector<std::string> patch_types;
+    // When given, the written files are handed over here, still under their
+    // temporary names, for the caller to commit with its other outputs;
+    // otherwise they are moved into place before returning.
+    StagedOutputs* staged = nullptr;
 };
 
 struct PolyMeshCounts {

@@ -249,6 +249,7 @@ void write_msh(const SurfaceMesh& mesh, const std::vector<VertexField>& fields, 
     } catch (const std::string& gmsh_error) { // how Gmsh 4.8 reports errors
         throw IoError(out.path().string(), "Gmsh could not write the file: " + gmsh_error);
     }
+    if (!options.msh_comments.empty()) insert_msh_comments(out.temporary(), options.msh_comments);
 }
 
 } // namespace

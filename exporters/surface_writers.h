@@ -17,6 +17,7 @@ struct SurfaceWriteOptions {
     // .msh only: physical group name per patch id; ids not listed are named
     // "wall" (patch 0) and "patch_<id>" (any other id).
     std::map<int32_t, std::string> patch_names;
+    std::vector<std::string> msh_comments = {}; // .msh only: lines of a $Comments section (provenance)
 };
 
 // Writes `mesh` to `path`, the format chosen by the extension (case sensitive):

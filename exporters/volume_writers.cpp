@@ -120,6 +120,7 @@ void write_volume_msh(const TetMesh& mesh, const std::filesystem::path& path, co
     } catch (const std::string& gmsh_error) { // how Gmsh 4.8 reports errors
         throw IoError(path.string(), "Gmsh could not write the file: " + gmsh_error);
     }
+    if (!options.comments.empty()) insert_msh_comments(out.temporary(), options.comments);
     out.commit();
 }
 

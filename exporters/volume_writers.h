@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 namespace scalemesh {
 
@@ -13,6 +14,7 @@ struct VolumeMshOptions {
     double msh_version = 4.1;       // 4.1 or 2.2 (gmshToFoam and older tools read 2.2)
     bool binary = false;
     std::string region = "fluid";   // name of the volume physical group
+    std::vector<std::string> comments = {}; // lines of a $Comments section after $MeshFormat (provenance)
 };
 
 // .msh through the Gmsh SDK: tets (element type 4, tags 1..T in mesh order)

@@ -11,6 +11,7 @@
 #include "exporters/surface_writers.h"
 #include "importers/vdb_importer.h"
 #include "phantom/phantom.h"
+#include "pipeline/memory_estimate.h"
 #include "pipeline/run_case.h"
 #include "volume/quality.h"
 
@@ -95,6 +96,13 @@ int main(int argc, char** argv)
     std::string case_dir;
     auto* run_cmd = app.add_subcommand("run", "Run a case directory (scalemesh.toml) and write its outputs into it");
     run_cmd->add_option("case", case_dir, "Case directory holding scalemesh.toml")->required();
+    std::optional<int> threads;
+    run_cmd->add_option("--threads", threads,
+                        "Worker threads of every parallel stage, overriding [run] threads (0: every core)");
+    std::string max_memory;
+    run_cmd->add_option("--max-memory", max_memory,
+                        "Memory the run may use, e.g. 8G or 512M (default: the machine's physical memory); a "
+                        "case whose estimated peak is larger stops before the heavy stages");
 
     // check
     std::string check_mesh;
@@ -172,7 +180,8 @@ int main(int argc, char** argv)
         } else if (*run_cmd) {
             const auto start = std::chrono::steady_clock::now();
             const CaseConfig config = read_case(case_dir);
-            const CaseResult result = run_case(case_dir, display.listener());
+            const int64_t memory_bound = max_memory.empty() ? 0 : parse_memory_size(max_memory, "--max-memory");
+            const CaseResult result = run_case(case_dir, display.listener(), threads, memory_bound);
             display.summary(config, result,
                             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
         }

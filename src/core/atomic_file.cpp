@@ -4,6 +4,7 @@
 
 #include <array>
 #include <atomic>
+#include <csignal>
 #include <cstring>
 #include <unistd.h>
 
@@ -61,6 +62,23 @@ void AtomicOutput::commit()
     std::filesystem::rename(temporary_, path_, ec);
     if (ec) throw IoError(path_.string(), "cannot move the finished file into place: " + ec.message());
     committed_ = true;
+}
+
+void commit_all(StagedOutputs& outputs)
+{
+    sigset_t held, previous;
+    sigemptyset(&held);
+    sigaddset(&held, SIGINT);
+    sigaddset(&held, SIGTERM);
+    sigaddset(&held, SIGHUP);
+    pthread_sigmask(SIG_BLOCK, &held, &previous);
+    try {
+        for (auto& out : outputs) out->commit();
+    } catch (...) {
+        pthread_sigmask(SIG_SETMASK, &previous, nullptr);
+        throw;
+    }
+    pthread_sigmask(SIG_SETMASK, &previous, nullptr);
 }
 
 void remove_pending_outputs() noexcept

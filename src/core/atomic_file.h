@@ -4,7 +4,9 @@
 // where a user or the next tool would read it.
 
 #include <filesystem>
+#include <memory>
 #include <string>
+#include <vector>
 
 namespace scalemesh {
 
@@ -29,6 +31,15 @@ private:
     bool committed_ = false;
     int slot_ = -1;
 };
+
+// Outputs written under temporary names, moved into place together.
+using StagedOutputs = std::vector<std::unique_ptr<AtomicOutput>>;
+
+// Commits every output with SIGINT, SIGTERM and SIGHUP held back, so that an
+// interruption leaves either all of them in place or none (the renames take
+// microseconds; a held signal is delivered when they are done). Throws
+// IoError as AtomicOutput::commit.
+void commit_all(StagedOutputs& outputs);
 
 // Removes every temporary file still pending; safe to call from a signal
 // handler (uses only unlink on pre-built names).

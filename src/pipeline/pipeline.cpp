@@ -6,14 +6,18 @@
 #include "importers/vdb_importer.h"
 #include "isosurface/marching_cubes.h"
 #include "phantom/phantom.h"
+#include "pipeline/memory_estimate.h"
 #include "smoothing/volume_conserving_smoothing.h"
 #include "volume/quality.h"
+
+#include <tbb/global_control.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <tuple>
 
@@ -143,6 +147,14 @@ std::pair<int64_t, double> drop_closed_regions(SurfaceMesh& surface)
     return {dropped, dropped_volume};
 }
 
+// What a memory estimate counted, for its message.
+std::string points_basis(double points, double M, const std::string& from)
+{
+    std::ostringstream out;
+    out << "about " << std::llround(points) << " volume mesh points for M = " << M << " layers, " << from;
+    return out.str();
+}
+
 // Algorithm 1's parameters for a case, with L_min and L_max in mm as the run
 // resolved them.
 SizingParams sizing_params(const CaseConfig& config, const PipelineRun& run)
@@ -163,6 +175,10 @@ SizingParams sizing_params(const CaseConfig& config, const PipelineRun& run)
 PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& options,
                                 const StageListener& listener)
 {
+    // Every parallel stage (TBB, and Embree's TBB tasks) within the case's
+    // thread count; 0 leaves TBB's default, every core.
+    std::optional<tbb::global_control> thread_limit;
+    if (config.threads > 0) thread_limit.emplace(tbb::global_control::max_allowed_parallelism, config.threads);
     PipelineRun run;
     SurfaceMesh surface;
     // Index-to-world map of the image, for border openings; for a surface
@@ -280,6 +296,14 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
                              " mm",
                          "lower [sizing] L_min or raise L_max");
 
+    // Resource limits: the estimated peak memory is checked before each heavy
+    // stage, so that a case too large stops with advice rather than being
+    // killed (pipeline/memory_estimate.h).
+    run.memory_bound = options.max_memory > 0 ? options.max_memory : physical_memory();
+    const auto surface_triangles = static_cast<int64_t>(surface.triangles.size());
+    require_memory(estimate_peak_memory(surface_triangles, 0), run.memory_bound,
+                   std::to_string(surface_triangles) + " surface triangles");
+
     if (options.sizing) {
         StageClock clock(run, listener, "sizing");
         run.sizing = run.caps.empty() ? compute_feature_size(surface, sizing_params(config, run))
@@ -292,6 +316,14 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
     run.surface = std::move(surface);
 
     if (!options.remesh || !run.sizing) return run;
+    if (options.volume) {
+        const double points = remeshed_volume_points(run.surface, *run.sizing, config.K, config.M, run.L_max);
+        run.memory_estimate_remeshing = estimate_peak_memory(surface_triangles, points);
+        require_memory(run.memory_estimate_remeshing, run.memory_bound,
+                       points_basis(points, config.M,
+                                    "from the feature size on " + std::to_string(surface_triangles) +
+                                        " surface triangles"));
+    }
     RemeshParams remesh;
     remesh.K = config.K;
     remesh.M = config.M;
@@ -328,6 +360,12 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
             clock.done(summary.str());
         }
         if (!options.volume) return run;
+        const double points = volume_points(run.remeshed->sizing, config.M, run.L_max);
+        run.memory_estimate_volume = estimate_peak_memory(surface_triangles, points);
+        require_memory(run.memory_estimate_volume, run.memory_bound,
+                       points_basis(points, config.M,
+                                    "on " + std::to_string(run.remeshed->surface.points.size()) +
+                                        " remeshed surface nodes"));
         StageClock clock(run, listener, attempt == 0 ? "volume" : "volume (retry " + std::to_string(attempt) + ")");
         try {
             run.volume = build_volume_mesh(run.remeshed->surface, run.remeshed->sizing, volume);

@@ -52,12 +52,18 @@ struct PipelineRun {
     };
     std::vector<Refinement> refinements; // section 2.3 local refinements, in order
     std::vector<StageTime> stages;
+    int64_t memory_bound = 0;               // bytes the run was allowed (PipelineOptions::max_memory resolved)
+    double memory_estimate_remeshing = 0;   // bytes, peak estimated before remeshing (0: not estimated)
+    double memory_estimate_volume = 0;      // bytes, peak estimated before the (last) volume stage
 };
 
 struct PipelineOptions {
     bool sizing = true;  // compute the feature size field
     bool remesh = false; // remesh the surface to it (needs sizing)
     bool volume = false; // build the volume mesh (needs remesh)
+    int64_t max_memory = 0; // bytes: a run whose estimated peak memory exceeds this stops with an
+                            // InputError before sizing, remeshing and the volume stage; 0: the
+                            // machine's physical memory
 };
 
 // Runs the stages for `config`. Throws InputError, IoError or StageError.

@@ -8,6 +8,7 @@
 #include "exporters/polymesh_writer.h"
 #include "exporters/surface_writers.h"
 #include "exporters/volume_writers.h"
+#include "pipeline/memory_estimate.h"
 #include "volume/quality.h"
 
 #include <nlohmann/json.hpp>
@@ -15,6 +16,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <sstream>
 
 namespace scalemesh {
 
@@ -77,7 +79,8 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
                             {"smoothing_sweeps", config.smoothing.sweeps},
                             {"smoothing_omega", config.smoothing.omega},
                             {"smoothing_max_displacement", config.smoothing_reach.text()},
-                            {"connectivity", config.connectivity == InsideConnectivity::Six ? 6 : 26}};
+                            {"connectivity", config.connectivity == InsideConnectivity::Six ? 6 : 26},
+                            {"threads", config.threads}};
     nlohmann::json stages = nlohmann::json::array();
     for (const StageTime& s : run.stages) stages.push_back({{"stage", s.name}, {"seconds", s.seconds}, {"summary", s.summary}});
     report["stages"] = stages;
@@ -211,28 +214,54 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
     nlohmann::json files = nlohmann::json::array();
     for (const auto& p : result.written) files.push_back(std::filesystem::relative(p, config.directory).string());
     report["files"] = files;
+    // The estimates of pipeline/memory_estimate.h beside the measured peak
+    // (so far: the outputs are written, report.json is last).
+    report["memory"] = {{"bound_bytes", run.memory_bound},
+                        {"estimated_peak_bytes_before_remeshing", run.memory_estimate_remeshing},
+                        {"estimated_peak_bytes_before_volume", run.memory_estimate_volume},
+                        {"measured_peak_bytes", peak_resident_memory()}};
     return report.dump(2) + "\n";
 }
 
-CaseResult run_case(const std::filesystem::path& dir, const StageListener& listener)
+CaseResult run_case(const std::filesystem::path& dir, const StageListener& listener, std::optional<int> threads,
+                    int64_t max_memory)
 {
-    const CaseConfig config = read_case(dir);
+    CaseConfig config = read_case(dir);
+    if (threads) {
+        if (*threads < 0 || *threads > 1024)
+            throw InputError("--threads " + std::to_string(*threads) + " is out of range",
+                             "give 0 (all cores) or a thread count");
+        config.threads = *threads;
+    }
     CaseResult result;
     const bool volume = config.volume && config.remesh_cycles > 0;
-    result.run = run_pipeline(config, {.sizing = true, .remesh = config.remesh_cycles > 0, .volume = volume}, listener);
+    result.run = run_pipeline(
+        config, {.sizing = true, .remesh = config.remesh_cycles > 0, .volume = volume, .max_memory = max_memory},
+        listener);
 
     // The outputs are finished under temporary names first and moved into
     // place only when all are complete, so a failure (or an interruption,
     // through remove_pending_outputs) leaves the case directory as it was.
-    // The polyMesh writer validates the mesh before writing anything and
-    // moves its files into place itself, last of the meshes.
-    std::vector<std::unique_ptr<AtomicOutput>> pending;
+    // The polyMesh and case writers hand their files over uncommitted; all
+    // are moved into place together, with interruptions held back.
+    StagedOutputs pending;
     const auto stage = [&](const std::string& name) {
         pending.push_back(std::make_unique<AtomicOutput>(dir / name));
         result.written.push_back(dir / name);
         return pending.back()->temporary();
     };
     SurfaceWriteOptions surface_options;
+    // Provenance in the .msh files' $Comments section, as in report.json.
+    const PipelineRun& run = result.run;
+    std::ostringstream parameters;
+    parameters.precision(12);
+    parameters << "parameters K " << config.K << " M " << config.M << " G " << config.G << " L_min " << run.L_min
+               << " mm L_max " << run.L_max << " mm";
+    const std::vector<std::string> comments = {
+        "scalemesh " SCALEMESH_VERSION,
+        "input " + run.input + (run.input_checksum.empty() ? "" : " fnv1a64 " + run.input_checksum),
+        parameters.str()};
+    surface_options.msh_comments = comments;
     surface_options.msh_version = config.msh_version;
     surface_options.msh_binary = config.msh_binary;
     const std::vector<VertexField> fields = surface_fields(result.run, config.K, config.M);
@@ -243,7 +272,8 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
         const TetMesh mesh = export_mesh(result.run, config.K, config.M);
         for (const std::string& name : config.volume_outputs) {
             if (std::filesystem::path(name).extension() == ".vtk") write_volume_vtk(mesh, stage(name));
-            else write_volume_msh(mesh, stage(name), {.msh_version = config.msh_version, .binary = config.msh_binary});
+            else write_volume_msh(mesh, stage(name), {.msh_version = config.msh_version, .binary = config.msh_binary,
+                                                      .comments = comments});
         }
         // Fig. 19: the aspect-ratio histograms before and after improvement.
         const VolumeResult& v = *result.run.volume;
@@ -257,7 +287,7 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
             std::vector<std::string> types = {"wall"};
             for (size_t c = 0; c < result.run.caps.size(); ++c) types.push_back("patch");
             const PolyMeshCounts counts =
-                write_polymesh(mesh, dir, {.binary = config.openfoam_binary, .scale = 1e-3, .patch_types = types});
+                write_polymesh(mesh, dir, {.binary = config.openfoam_binary, .scale = 1e-3, .patch_types = types, .staged = &pending});
             result.polymesh = counts;
             std::vector<std::string> names;
             std::vector<PatchRole> roles;
@@ -269,7 +299,8 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
             }
             result.flow_case = write_openfoam_case(dir, names, roles,
                                                    {.kinematic_viscosity = config.viscosity,
-                                                    .inlet_speed = config.inlet_speed});
+                                                    .inlet_speed = config.inlet_speed,
+                                                    .staged = &pending});
             result.written.push_back(dir / "constant" / "polyMesh");
             result.written.push_back(dir / "system");
             if (result.flow_case) result.written.push_back(dir / "0");
@@ -281,7 +312,7 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
         if (std::filesystem::is_directory(out->path()))
             throw IoError(out->path().string(), "a directory has this name, so the output cannot be written; "
                                                 "rename or remove it");
-    for (auto& out : pending) out->commit();
+    commit_all(pending);
     return result;
 }
 

@@ -20,7 +20,11 @@ struct CaseResult {
 };
 
 // Throws InputError, IoError or StageError; a case that fails writes nothing.
-CaseResult run_case(const std::filesystem::path& dir, const StageListener& listener = {});
+// `threads`, when given, overrides the case file's [run] threads;
+// `max_memory` bounds the estimated peak memory (bytes; 0: the machine's
+// physical memory, PipelineOptions::max_memory).
+CaseResult run_case(const std::filesystem::path& dir, const StageListener& listener = {},
+                    std::optional<int> threads = {}, int64_t max_memory = 0);
 
 // report.json of a run: version, input and its checksum, parameters, stage
 // times, surface facts, sizing and remeshing statistics, the volume mesh's

@@ -278,24 +278,28 @@ private:
     Criterion criterion_;
 };
 
-// Smallest aspect ratio over the tets at v, or -1 when one is not clearly positive.
+// Smallest aspect ratio over the tets at v (not above 0 when one is flat or
+// inverted, or NaN).
 double star_quality(TetEditor& ed, int32_t v)
 {
     double q = 1e300;
     for (int32_t t : ed.at(v)) {
-        const Tet& tet = ed.tet(t);
-        const double a = ed.aspect(tet);
-        if (!(a > 1e-9)) return -1;
+        const double a = ed.aspect(ed.tet(t));
+        if (!(a > 0)) return 0;
         q = std::min(q, a);
     }
     return q;
 }
 
-// Moves interior point v to raise the smallest aspect ratio of its star.
+// Moves interior point v to raise the smallest aspect ratio of its star. A
+// star holding a nearly flat tet (aspect ratio 1e-11 in a flat slab, where
+// the layer points of two wall nodes and the nodes lie in one plane) is the
+// one most in need of a move; a new position must beat the old smallest
+// aspect ratio by 1e-9, so it never keeps a tet flatter than that.
 bool smooth_point(TetEditor& ed, int32_t v)
 {
     const double start = star_quality(ed, v);
-    if (start < 0) return false;
+    if (!(start > 0)) return false;
     const Vec3 origin = ed.point(v);
     int32_t worst = -1;
     double worst_q = 1e300, mean_length = 0;

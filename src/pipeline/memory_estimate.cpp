@@ -1,0 +1,113 @@
+#include "pipeline/memory_estimate.h"
+
+#include "core/errors.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <sys/resource.h>
+#include <unistd.h>
+
+namespace scalemesh {
+
+namespace {
+
+// Algorithm 4's points of one node (offset_points.cpp, uniform layers).
+double node_points(double d, double D, double M, double L_max)
+{
+    if (!std::isfinite(D)) D = L_max; // an inward ray that escaped: sizing used L_max
+    if (!(d > 0) || !(D > 0)) return 1;
+    const double layers = std::floor(M / 2);
+    const double reach = D / 2;
+    if (layers * d / M > reach) return 1 + std::floor(reach * M / d);
+    return 1 + layers + std::floor((reach - layers * d / M) / (std::min(D, L_max) / M));
+}
+
+} // namespace
+
+int64_t physical_memory()
+{
+    return static_cast<int64_t>(::sysconf(_SC_PHYS_PAGES)) * static_cast<int64_t>(::sysconf(_SC_PAGE_SIZE));
+}
+
+int64_t peak_resident_memory()
+{
+    rusage usage{};
+    ::getrusage(RUSAGE_SELF, &usage);
+    return static_cast<int64_t>(usage.ru_maxrss) * 1024; // Linux reports kB
+}
+
+int64_t parse_memory_size(const std::string& text, const std::string& what)
+{
+    const auto refuse = [&] {
+        return InputError(what + " '" + text + "' is not a memory size",
+                          "give bytes with an optional unit K, M, G or T (powers of 1024), e.g. 8G or 512M");
+    };
+    size_t used = 0;
+    double value = 0;
+    try {
+        value = std::stod(text, &used);
+    } catch (const std::exception&) {
+        throw refuse();
+    }
+    std::string unit;
+    for (size_t i = used; i < text.size(); ++i)
+        if (!std::isspace(static_cast<unsigned char>(text[i]))) unit += static_cast<char>(std::toupper(text[i]));
+    if (unit.size() > 1 && (unit.ends_with("IB") || unit.ends_with("B"))) unit = unit.substr(0, 1);
+    const std::string units = "BKMGT";
+    const size_t power = unit.empty() ? 0 : units.find(unit);
+    if (unit.size() > 1 || power == std::string::npos || !(value > 0) || !std::isfinite(value)) throw refuse();
+    const double bytes = value * std::pow(1024.0, static_cast<double>(power));
+    if (bytes >= 9e18) throw refuse();
+    return static_cast<int64_t>(bytes);
+}
+
+std::string memory_text(double bytes)
+{
+    char text[32];
+    // Binary units, as --max-memory reads them.
+    if (bytes >= 0x1p30) std::snprintf(text, sizeof text, "%.1f GiB", bytes / 0x1p30);
+    else std::snprintf(text, sizeof text, "%.0f MiB", bytes / 0x1p20);
+    return text;
+}
+
+double volume_points(const FeatureSize& sizing, double M, double L_max)
+{
+    double points = 0;
+    for (size_t i = 0; i < sizing.d.size(); ++i) points += node_points(sizing.d[i], sizing.D[i], M, L_max);
+    return points;
+}
+
+double remeshed_volume_points(const SurfaceMesh& surface, const FeatureSize& sizing, double K, double M,
+                              double L_max, const MemoryModel& model)
+{
+    double points = 0;
+    for (const Triangle& t : surface.triangles) {
+        const Vec3& a = surface.points[t[0]];
+        const double area = 0.5 * norm(cross(surface.points[t[1]] - a, surface.points[t[2]] - a));
+        double d = 0, D = 0;
+        for (int32_t v : t) d += sizing.d[v] / 3, D += sizing.D[v] / 3;
+        const double h = model.remeshed_edge_fraction * K / M * d;
+        if (!(h > 0)) continue;
+        points += area / (std::sqrt(3.0) / 2 * h * h) * node_points(d, D, M, L_max);
+    }
+    return points;
+}
+
+double estimate_peak_memory(int64_t surface_triangles, double points, const MemoryModel& model)
+{
+    return model.base + model.per_surface_triangle * static_cast<double>(surface_triangles) +
+           model.per_volume_point * points;
+}
+
+void require_memory(double estimate, int64_t bound, const std::string& basis)
+{
+    if (estimate <= static_cast<double>(bound)) return;
+    throw InputError("the mesh would need about " + memory_text(estimate) + " of memory (" + basis +
+                         "), more than the " + memory_text(static_cast<double>(bound)) + " allowed",
+                     "use a larger voxel size, a smaller [sizing] L_max (fewer filler points inside) or a "
+                     "region of interest (crop the image), or raise --max-memory on a machine with more memory");
+}
+
+} // namespace scalemesh

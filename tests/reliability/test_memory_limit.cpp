@@ -1,0 +1,81 @@
+// Issue 10, item 4: resource limits. Before the heavy stages the pipeline
+// estimates its peak memory (pipeline/memory_estimate.h) and stops with an
+// InputError when it exceeds --max-memory, instead of being killed; the
+// estimate is checked against the peak resident memory measured in the run.
+
+#include "hostile_support.h"
+#include "pipeline/memory_estimate.h"
+
+#include <nlohmann/json.hpp>
+
+namespace scalemesh {
+namespace {
+
+// A plate one voxel thick and 16 mm wide: a medium case (about 60,000 volume
+// points) whose feature size is the thickness everywhere.
+void write_plate(const TempDir& dir)
+{
+    write_label_mha(dir.path / "image.mha", {1, 32, 32}, 0.5, [](int, int, int) { return true; });
+    write_case(dir.path, "[input]\nfile = \"image.mha\"\n");
+}
+
+TEST(MemoryLimit, SizesParse)
+{
+    EXPECT_EQ(parse_memory_size("8G", "--max-memory"), 8LL << 30);
+    EXPECT_EQ(parse_memory_size("512M", "--max-memory"), 512LL << 20);
+    EXPECT_EQ(parse_memory_size("1.5 GiB", "--max-memory"), 3LL << 29);
+    EXPECT_EQ(parse_memory_size("300mb", "--max-memory"), 300LL << 20);
+    EXPECT_EQ(parse_memory_size("2000000000", "--max-memory"), 2000000000LL);
+    for (const std::string bad : {"", "lots", "8X", "-1G", "0", "nanG", "1e30G"})
+        EXPECT_THROW(parse_memory_size(bad, "--max-memory"), InputError) << bad;
+    EXPECT_GT(physical_memory(), 0);
+}
+
+TEST(MemoryLimit, TinyBoundIsRefusedBeforeAnyOutput)
+{
+    const TempDir dir;
+    write_plate(dir);
+    const CommandResult r = run_case_limited(dir.path, 120, {"--max-memory", "50M"});
+    expect_refused(r, dir.path, {"image.mha"});
+    EXPECT_NE(r.err.find("would need about"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("more than the 50 MiB allowed"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("voxel size"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("L_max"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("region of interest"), std::string::npos) << r.err;
+}
+
+TEST(MemoryLimit, BoundBelowTheVolumeStageIsRefusedBeforeIt)
+{
+    // Enough for the surface stages, not for the volume mesh.
+    const TempDir dir;
+    write_plate(dir);
+    const CommandResult r = run_case_limited(dir.path, 120, {"--max-memory", "150M"});
+    expect_refused(r, dir.path, {"image.mha"});
+    EXPECT_NE(r.err.find("volume mesh points for M = 7 layers"), std::string::npos) << r.err;
+}
+
+TEST(MemoryLimit, UnreadableBoundIsRefused)
+{
+    const TempDir dir;
+    write_plate(dir);
+    expect_refused(run_case_limited(dir.path, 120, {"--max-memory", "plenty"}), dir.path, {"image.mha"});
+}
+
+TEST(MemoryLimit, EstimatesWithinAFactorOfTwoOfTheMeasuredPeak)
+{
+    const TempDir dir;
+    write_plate(dir);
+    const CommandResult r = run_case_limited(dir.path, 120);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const nlohmann::json memory = nlohmann::json::parse(std::ifstream(dir.path / "report.json"))["memory"];
+    const double measured = memory["measured_peak_bytes"];
+    EXPECT_EQ(memory["bound_bytes"].get<int64_t>(), physical_memory());
+    for (const std::string key : {"estimated_peak_bytes_before_remeshing", "estimated_peak_bytes_before_volume"}) {
+        const double estimate = memory[key];
+        EXPECT_GT(estimate, measured / 2) << key;
+        EXPECT_LT(estimate, measured * 2) << key;
+    }
+}
+
+} // namespace
+} // namespace scalemesh
