@@ -3,7 +3,8 @@
 # missing, configures and builds, then
 #   bash setup.sh        runs the default sample case (cases/tube)
 #   bash setup.sh test   runs the whole test suite with ctest, then its fast
-#                        part again built with the sanitizers
+#                        part again built with the sanitizers, then the fuzz
+#                        targets for a short while (needs clang)
 #   bash setup.sh bench  runs the benchmarks in bench/
 # Both are idempotent: with nothing missing and nothing changed they only
 # re-check the packages and let the build find nothing to do.
@@ -17,6 +18,7 @@ packages=(
   libinsighttoolkit5-dev libgdcm-tools zlib1g-dev
   libtinyobjloader-dev libexpat1-dev libpng-dev
   googletest libgtest-dev libbenchmark-dev
+  clang libclang-rt-14-dev
   openfoam
 )
 missing=()
@@ -59,10 +61,24 @@ case "${1:-run}" in
     ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
       ctest --test-dir "$asan" --output-on-failure -j "$(nproc)" --timeout 900 -L fast \
       -E 'VdbImporter.RefusesMissingCorruptAndEmptyFiles'
+    # libFuzzer on every importer and on the case-file parser, a short bounded
+    # run of each from its seeds (docs/fuzzing.md has the long campaigns).
+    fuzz=build-fuzz
+    if [ ! -f "$fuzz/build.ninja" ]; then
+      CC=clang CXX=clang++ cmake -S . -B "$fuzz" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSCALEMESH_FUZZ=ON \
+        -DSCALEMESH_TESTS=OFF -DSCALEMESH_BENCH=OFF
+    fi
+    cmake --build "$fuzz" --target fuzzers
+    ctest --test-dir "$fuzz" --output-on-failure -j "$(nproc)" -L fuzz
     ;;
   bench)
     "$build/bench/bench_surface" bench-surface.json
     "$build/bench/bench_export" 1.5 bench-export.json
+    # Issue 9: the whole pipeline against image size, with references; it
+    # regenerates docs/performance.md and its plot (gnuplot draws the plot).
+    command -v gnuplot >/dev/null || { apt-get update -qq && apt-get install -y -qq --no-install-recommends gnuplot-nox >/dev/null; }
+    "$build/bench/bench_pipeline" --json bench-pipeline.json --plot docs/performance.png \
+      --doc docs/performance.md --notes bench/performance-notes.md
     ;;
   *)
     echo "usage: bash setup.sh [run|test|bench]" >&2

@@ -27,6 +27,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <string_view>
 
 namespace scalemesh {
 
@@ -209,6 +210,17 @@ void check_nifti(const std::filesystem::path& path)
             throw InputError(name + " has voxel spacing pixdim[" + std::to_string(d) + "] = " + number(spacing),
                              "fix the spacing in the header");
     }
+    // ITK takes the orientation from the qform or the sform, whichever is set,
+    // through an SVD that aborts the process on a NaN or infinite entry (vnl's
+    // assert_finite; found by fuzzing).
+    const auto require_finite = [&](size_t offset, int count, const char* what) {
+        for (int i = 0; i < count; ++i)
+            if (!std::isfinite(load(offset + 4 * static_cast<size_t>(i), float{})))
+                throw InputError(name + " has a NaN or infinite entry in its " + what,
+                                 "fix the orientation in the header");
+    };
+    if (load(252, int16_t{}) > 0) require_finite(256, 6, "qform (quatern_b, c, d, qoffset)");
+    if (load(254, int16_t{}) > 0) require_finite(280, 12, "sform (srow_x, srow_y, srow_z)");
     const float vox_offset = load(108, float{});
     if (!std::isfinite(vox_offset) || vox_offset < 0 || vox_offset > 1e9f)
         throw InputError(name + " has an invalid data offset (vox_offset = " + number(vox_offset) + ")", hint);
@@ -237,6 +249,28 @@ void check_nifti(const std::filesystem::path& path)
         throw InputError(name + " is truncated: its header promises " + std::to_string(needed) +
                              " bytes, the file holds " + std::to_string(length),
                          hint);
+}
+
+// ITK 5.2's MetaIO copies every header key (the text up to '=', ':' or the
+// end of the line, up to 500 characters) into a field name of 255 characters
+// with strcpy: a longer key overflows it (found by fuzzing, fuzz/regressions/
+// metaimage). The header ends with the ElementDataFile line; up to there, no
+// run of characters between separators may be that long.
+void check_metaimage(const std::filesystem::path& path)
+{
+    std::ifstream in(path, std::ios::binary);
+    for (std::string line; std::getline(in, line);) {
+        size_t run = 0;
+        for (const char c : line) {
+            run = c == '=' || c == ':' || c == '\r' ? 0 : run + 1;
+            if (run >= MET_MAX_NAME_SIZE)
+                throw InputError(path.string() + " is not a MetaImage file: its header has a key of more than " +
+                                     std::to_string(MET_MAX_NAME_SIZE - 1) + " characters",
+                                 "the header is corrupt, or the file is not a MetaImage; re-export it");
+        }
+        const size_t key = line.find_first_not_of(" \t");
+        if (key != std::string::npos && line.compare(key, 15, "ElementDataFile") == 0) return;
+    }
 }
 
 // What ITK read: geometry in double precision and the raw voxel buffer in the
@@ -329,6 +363,58 @@ void read_header(itk::ImageIOBase& io, const std::string& name, Format format, R
                          "save the MetaImage with binary data");
 }
 
+// zlib's deflate, the one compression these readers take, packs at most 1032
+// bytes into one; no other encoding of theirs is denser.
+constexpr int64_t kMaxCompressionRatio = 1032;
+
+std::optional<int64_t> size_of(const std::filesystem::path& path)
+{
+    std::error_code ec;
+    const auto bytes = std::filesystem::file_size(path, ec);
+    if (ec) return std::nullopt;
+    return static_cast<int64_t>(bytes);
+}
+
+// The size of the file holding the voxels: the header's own file when the
+// data are attached (NRRD without "data file", MetaImage "LOCAL"), else the
+// one data file it names; nullopt for a list or pattern of files, left to ITK.
+std::optional<int64_t> data_file_size(itk::ImageIOBase& io, const std::filesystem::path& path)
+{
+    std::string data_file;
+    if (auto* meta = dynamic_cast<itk::MetaImageIO*>(&io)) {
+        data_file = meta->GetMetaImagePointer()->ElementDataFileName();
+        if (data_file == "LOCAL") data_file.clear();
+    } else if (dynamic_cast<itk::NrrdImageIO*>(&io)) {
+        // The header runs to the first empty line; ITK does not tell the data file.
+        std::ifstream in(path, std::ios::binary);
+        for (std::string line; std::getline(in, line) && !line.empty() && line != "\r";) {
+            for (const std::string_view key : {"data file:", "datafile:"})
+                if (line.starts_with(key)) data_file = line.substr(key.size());
+        }
+        const auto first = data_file.find_first_not_of(" \t");
+        const auto last = data_file.find_last_not_of(" \t\r");
+        data_file = first == std::string::npos ? "" : data_file.substr(first, last + 1 - first);
+    } else {
+        return std::nullopt; // NIfTI: check_nifti counts its data
+    }
+    if (data_file.empty()) return size_of(path);
+    if (data_file.starts_with("LIST") || data_file.find_first_of("% \t") != std::string::npos) return std::nullopt;
+    return size_of(path.parent_path() / data_file);
+}
+
+// A corrupt header can promise gigabytes of voxels in a file of a few bytes:
+// refused before the buffer for them is allocated.
+void check_data_size(itk::ImageIOBase& io, const RawImage& image, const std::filesystem::path& path)
+{
+    const std::optional<int64_t> bytes = data_file_size(io, path);
+    const auto needed = image.voxels() * static_cast<int64_t>(io.GetComponentSize());
+    if (bytes && needed / kMaxCompressionRatio > *bytes)
+        throw InputError(path.string() + " is truncated or its header is corrupt: " + std::to_string(image.voxels()) +
+                             " voxels (" + std::to_string(needed) + " bytes) cannot come from " +
+                             std::to_string(*bytes) + " bytes of data, even compressed",
+                         "the file may be truncated or corrupt; re-export it");
+}
+
 // The last bytes of the buffer before the read: a fixed random pattern. ITK
 // 5.2's MetaImage reader does not check that compressed data inflate to the
 // whole image, and leaves the rest of the buffer as it was; a read that leaves
@@ -373,6 +459,7 @@ RawImage read_with_itk(const std::filesystem::path& path, Format format)
     try {
         itk::ImageIOBase::Pointer io = make_io(format);
         read_header(*io, name, format, image);
+        check_data_size(*io, image, path);
         const size_t said_before = captured.text().size();
         read_voxels(*io, image, name);
         // MetaIO reports some failures only on std::cerr ("data not read
@@ -666,6 +753,7 @@ openvdb::FloatGrid::Ptr read_image(const std::filesystem::path& path, const Imag
         throw IoError(name, "cannot be opened for reading; check its permissions");
 
     if (*format == Format::Nifti) check_nifti(path);
+    if (*format == Format::MetaImage) check_metaimage(path);
     const RawImage image = read_with_itk(path, *format);
     const openvdb::math::Transform::Ptr transform = image_transform(image, name);
     openvdb::FloatGrid::Ptr grid = dispatch(image, params, name);

@@ -5,6 +5,7 @@
 
 #include "core/surface_mesh.h"
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstdint>

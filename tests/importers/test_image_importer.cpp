@@ -650,6 +650,12 @@ TEST(ImageImporter, RefusesMalformedFiles)
                                     "ElementType = MET_UCHAR\nElementDataFile = LOCAL\n1 1 1 1 1 1 1 1\n");
     EXPECT_THROW(read_image(s.dir / "text.mha"), InputError);
 
+    // A header key longer than ITK's MetaIO field name, which its strcpy
+    // overflows (found by fuzzing).
+    write_bytes(s.dir / "key.mha", std::string(300, 'K') + " = 1\n" +
+                                       mha({2, 2, 2}, {1, 1, 1}, {0, 0, 0}, "MET_UCHAR", std::string(8, '\1')));
+    EXPECT_THROW(read_image(s.dir / "key.mha"), InputError);
+
     // Zero sizes.
     Nifti zero = label_image();
     zero.dim[3] = 0;
@@ -695,12 +701,34 @@ TEST(ImageImporter, RefusesMalformedFiles)
     } catch (const InputError& e) {
         EXPECT_NE(std::string(e.what()).find("2^31"), std::string::npos) << e.what();
     }
+    // Fewer voxels than 2^31 but more than a few bytes can hold, even
+    // compressed: refused before the 16 GB buffer is allocated.
+    for (const std::string& encoding : {"raw", "gzip"}) {
+        std::string big = nrrd("2048 2048 511", "", "double", std::string(40, '\1'));
+        big.replace(big.find("encoding: raw"), 13, "encoding: " + encoding);
+        write_bytes(s.dir / "big.nrrd", big);
+        try {
+            read_image(s.dir / "big.nrrd");
+            FAIL() << encoding;
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find("even compressed"), std::string::npos) << e.what();
+        }
+    }
+    write_bytes(s.dir / "big.mha", mha({2048, 2048, 511}, {1, 1, 1}, {0, 0, 0}, "MET_DOUBLE", std::string(40, '\1')));
+    EXPECT_THROW(read_image(s.dir / "big.mha"), InputError);
 
     // Voxels too small for OpenVDB to invert the transform (found by fuzzing).
     Nifti tiny = label_image();
     tiny.pixdim = {1e-7f, 1e-7f, 1e-7f};
     write_bytes(s.dir / "tiny.nii", tiny.bytes());
     EXPECT_THROW(read_image(s.dir / "tiny.nii"), InputError);
+
+    // A NaN in the sform, on which ITK's SVD aborts (found by fuzzing).
+    Nifti nan_sform = label_image();
+    set_sform(nan_sform, {{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}}, {1, 1, 1}, {0, 0, 0});
+    nan_sform.srow[2][1] = std::nanf("");
+    write_bytes(s.dir / "nan_sform.nii", nan_sform.bytes());
+    EXPECT_THROW(read_image(s.dir / "nan_sform.nii"), InputError);
 
     // A sheared sform with no qform has no orthonormal direction.
     Nifti shear = label_image();
