@@ -18,16 +18,12 @@
 #include "core/adjacency.h"
 #include "isosurface/marching_cubes.h"
 #include "phantom/phantom.h"
+#include "references.h"
 #include "remeshing/remesh.h"
 #include "sizing/feature_size.h"
 #include "smoothing/volume_conserving_smoothing.h"
 
-#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-#include <CGAL/Polygon_mesh_processing/remesh.h>
-#include <CGAL/Surface_mesh.h>
-
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -37,21 +33,7 @@
 namespace {
 
 using namespace scalemesh;
-using Clock = std::chrono::steady_clock;
-using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
-using Mesh = CGAL::Surface_mesh<Kernel::Point_3>;
-
-double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
-
-Mesh to_cgal(const SurfaceMesh& surface)
-{
-    Mesh mesh;
-    std::vector<Mesh::Vertex_index> vertices;
-    vertices.reserve(surface.points.size());
-    for (const Vec3& p : surface.points) vertices.push_back(mesh.add_vertex({p.x, p.y, p.z}));
-    for (const Triangle& t : surface.triangles) mesh.add_face(vertices[t[0]], vertices[t[1]], vertices[t[2]]);
-    return mesh;
-}
+using namespace scalemesh::bench;
 
 double min_angle_degrees(const Vec3& a, const Vec3& b, const Vec3& c)
 {
@@ -65,21 +47,6 @@ double fraction_above_15_degrees(const SurfaceMesh& surface)
     for (const Triangle& t : surface.triangles)
         good += min_angle_degrees(surface.points[t[0]], surface.points[t[1]], surface.points[t[2]]) > 15;
     return double(good) / double(surface.triangles.size());
-}
-
-double fraction_above_15_degrees(const Mesh& mesh)
-{
-    size_t good = 0, all = 0;
-    for (const auto f : mesh.faces()) {
-        std::vector<Vec3> p;
-        for (const auto v : CGAL::vertices_around_face(mesh.halfedge(f), mesh)) {
-            const auto& q = mesh.point(v);
-            p.push_back({q.x(), q.y(), q.z()});
-        }
-        good += min_angle_degrees(p[0], p[1], p[2]) > 15;
-        ++all;
-    }
-    return double(good) / double(all);
 }
 
 // Edges with length / (K/M d) in [0.45, 1.1], d the mean of the two ends.
@@ -130,21 +97,17 @@ int main()
                 params.cycles, t_ours, ours.seconds_sizing, ours.surface.triangles.size(), (long long)ours.merges,
                 (long long)ours.swaps, (long long)ours.bisections);
 
-    start = Clock::now();
-    Mesh mesh = to_cgal(surface);
-    const double t_convert = seconds_since(start);
-    start = Clock::now();
-    CGAL::Polygon_mesh_processing::isotropic_remeshing(faces(mesh), median_target, mesh,
-                                                       CGAL::parameters::number_of_iterations(3));
-    const double t_cgal = seconds_since(start);
-    std::printf("CGAL: isotropic_remeshing, 3 iterations at %.4f mm: %.3f s (conversion %.3f s, not counted), "
+    SurfaceMesh cgal;
+    const ReferenceRun reference = cgal_isotropic_remeshing(surface, median_target, 3, &cgal);
+    const double t_cgal = reference.seconds;
+    std::printf("CGAL: isotropic_remeshing, 3 iterations at %.4f mm: %.3f s (conversion not counted), "
                 "%zu triangles out\n",
-                median_target, t_cgal, t_convert, static_cast<size_t>(mesh.number_of_faces()));
+                median_target, t_cgal, reference.items);
 
     std::printf("input triangles per second: ours %.0f, CGAL %.0f\n", triangles / t_ours, triangles / t_cgal);
     std::printf("speed ratio ours / CGAL: %.2f\n", t_cgal / t_ours);
     std::printf("triangles with smallest angle > 15 degrees: ours %.4f, CGAL %.4f\n",
-                fraction_above_15_degrees(ours.surface), fraction_above_15_degrees(mesh));
+                fraction_above_15_degrees(ours.surface), fraction_above_15_degrees(cgal));
     std::fflush(stdout);
 
     for (const std::string name : {"sphere", "torus", "tube", "bifurcation"}) {

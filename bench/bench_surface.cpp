@@ -9,38 +9,23 @@
 
 #include "isosurface/marching_cubes.h"
 #include "phantom/phantom.h"
+#include "references.h"
 #include "sizing/feature_size.h"
 #include "sizing/local_diameter.h"
 #include "sizing/normals.h"
 #include "smoothing/volume_conserving_smoothing.h"
 
-#include <openvdb/tools/VolumeToMesh.h>
 #include <tbb/global_control.h>
 
-#include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <fstream>
-#include <functional>
 #include <string>
 #include <vector>
 
 namespace {
 
 using namespace scalemesh;
-using Clock = std::chrono::steady_clock;
-
-double median_seconds(int repeats, const std::function<void()>& work)
-{
-    std::vector<double> times;
-    for (int i = 0; i < repeats; ++i) {
-        const auto start = Clock::now();
-        work();
-        times.push_back(std::chrono::duration<double>(Clock::now() - start).count());
-    }
-    std::sort(times.begin(), times.end());
-    return times[times.size() / 2];
-}
+using namespace scalemesh::bench;
 
 struct Row {
     std::string what;
@@ -76,12 +61,10 @@ int main(int argc, char** argv)
             surface = marching_cubes(*grid);
             ours = surface.triangles.size();
         });
-        const double t_vdb = median_seconds(repeats, [&] {
-            std::vector<openvdb::Vec3s> points;
-            std::vector<openvdb::Vec3I> triangles;
-            std::vector<openvdb::Vec4I> quads;
-            openvdb::tools::volumeToMesh(*grid, points, triangles, quads, 0.5, 0.0);
-            theirs = triangles.size() + 2 * quads.size();
+        const double t_vdb = median_of_reported(repeats, [&] {
+            const ReferenceRun r = openvdb_volume_to_mesh(*grid, 0.5);
+            theirs = r.items;
+            return r.seconds;
         });
         rows.push_back({"isosurface (marching cubes)", threads, t_ours, double(ours), "triangles", -1});
         rows.push_back({"  reference: OpenVDB volumeToMesh", threads, t_vdb, double(theirs), "triangles", -1});

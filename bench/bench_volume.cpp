@@ -10,15 +10,12 @@
 
 #include "isosurface/marching_cubes.h"
 #include "phantom/phantom.h"
+#include "references.h"
 #include "remeshing/remesh.h"
 #include "sizing/feature_size.h"
 #include "smoothing/volume_conserving_smoothing.h"
 #include "volume/volume_mesh.h"
 
-#include <CGAL/Delaunay_triangulation_3.h>
-#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-
-#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -27,8 +24,7 @@
 namespace {
 
 using namespace scalemesh;
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+using namespace scalemesh::bench;
 
 } // namespace
 
@@ -72,13 +68,7 @@ int main(int argc, char** argv)
     const double ours = seconds_since(t0);
     const size_t tets = r.mesh.tets.size();
 
-    using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
-    std::vector<Kernel::Point_3> points;
-    points.reserve(r.mesh.points.size());
-    for (const Vec3& p : r.mesh.points) points.emplace_back(p.x, p.y, p.z);
-    t0 = Clock::now();
-    CGAL::Delaunay_triangulation_3<Kernel> dt(points.begin(), points.end()); // spatially sorted by CGAL
-    const double reference = seconds_since(t0);
+    const ReferenceRun reference = cgal_delaunay(r.mesh.points);
 
     const auto& q0 = r.before_flips;
     const auto& q1 = r.after_flips;
@@ -93,8 +83,8 @@ int main(int argc, char** argv)
                 q0.min_aspect_ratio, q1.min_aspect_ratio, q2.min_aspect_ratio, 100 * q0.fraction_below_0_1,
                 100 * q1.fraction_below_0_1, 100 * q2.fraction_below_0_1);
     std::printf("reference: CGAL Delaunay_triangulation_3 of the same %zu points: %.3f s, %zu finite cells\n",
-                points.size(), reference, dt.number_of_finite_cells());
-    std::printf("ratio volume stage / CGAL plain insertion: %.2f\n", ours / reference);
+                r.mesh.points.size(), reference.seconds, reference.items);
+    std::printf("ratio volume stage / CGAL plain insertion: %.2f\n", ours / reference.seconds);
     std::printf("output tets per second: %.3g\n", double(tets) / ours);
     return 0;
 }
