@@ -408,6 +408,24 @@ double triangulate_ring(TetEditor& ed, const std::vector<int32_t>& ring, int32_t
     return best[m - 1];
 }
 
+// The tets of `around`, which all hold the edge (p, q), split at the point m
+// on that edge: each gives one copy with p replaced by m and one with q.
+std::vector<Tet> split_at(TetEditor& ed, const std::vector<int32_t>& around, int32_t p, int32_t q, int32_t m)
+{
+    std::vector<Tet> out;
+    out.reserve(2 * around.size());
+    for (int32_t t : around) {
+        Tet x = ed.tet(t), y = ed.tet(t);
+        for (int i = 0; i < 4; ++i) {
+            if (x[i] == p) x[i] = m;
+            if (y[i] == q) y[i] = m;
+        }
+        out.push_back(x);
+        out.push_back(y);
+    }
+    return out;
+}
+
 // Splits the edge (q, s) of a sliver whose vertices are all surface points
 // (flips cannot remove it without changing the surface, and no vertex may
 // move) by a new interior point m: every tet (q, s, x, y) at the edge
@@ -429,21 +447,8 @@ bool split_surface_sliver_edge(TetEditor& ed, int32_t q, int32_t s)
     }
     centroid /= count;
     const Vec3 mid = 0.5 * (ed.point(q) + ed.point(s));
-    auto split = [&](int32_t m, std::vector<Tet>& out) {
-        out.clear();
-        for (int32_t t : around) {
-            Tet a = ed.tet(t), b = ed.tet(t);
-            for (int i = 0; i < 4; ++i) {
-                if (a[i] == q) a[i] = m;
-                if (b[i] == s) b[i] = m;
-            }
-            out.push_back(a);
-            out.push_back(b);
-        }
-    };
     const int32_t m = ed.add_point(mid);
-    std::vector<Tet> fresh;
-    split(m, fresh);
+    std::vector<Tet> fresh = split_at(ed, around, q, s, m);
     double best = old_q;
     Vec3 best_position;
     bool found = false;
@@ -479,16 +484,7 @@ bool split_quad_diagonal(TetEditor& ed, int32_t a, int32_t b, int32_t c, int32_t
     const Vec3 inward = -normalized(outward);
     const double length = distance(ed.point(b), ed.point(d));
     const int32_t m = ed.add_point(mid);
-    std::vector<Tet> fresh;
-    for (int32_t t : around) {
-        Tet x = ed.tet(t), y = ed.tet(t);
-        for (int i = 0; i < 4; ++i) {
-            if (x[i] == b) x[i] = m;
-            if (y[i] == d) y[i] = m;
-        }
-        fresh.push_back(x);
-        fresh.push_back(y);
-    }
+    std::vector<Tet> fresh = split_at(ed, around, b, d, m);
     fresh.push_back({a, c, b, m});
     fresh.push_back({a, d, c, m});
     double best = 0;
