@@ -5,6 +5,7 @@
 // argument, mm, default 1.5: about 190k tets), since the method sets element sizes by the
 // feature size, not the voxels. Prints a table and writes JSON (second argument).
 
+#include "core/huge_pages.h"
 #include "exporters/polymesh_writer.h"
 #include "exporters/volume_writers.h"
 #include "pipeline/pipeline.h"
@@ -32,6 +33,7 @@ double seconds(const std::function<void()>& work)
 
 int main(int argc, char** argv)
 {
+    scalemesh::restart_with_huge_pages(argv);
     const double h = 0.25, L_max = argc > 1 ? std::stod(argv[1]) : 1.5;
     const std::string json_path = argc > 2 ? argv[2] : "bench-export.json";
     CaseConfig config = parse_case("[input]\nphantom = \"pretzel\"\nvoxel_size = " + std::to_string(h) +

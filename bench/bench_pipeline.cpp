@@ -22,6 +22,7 @@
 // (gnuplot, when installed) and, with --doc, the markdown tables of
 // docs/performance.md followed by the notes file given with --notes.
 
+#include "core/huge_pages.h"
 #include "pipeline/run_case.h"
 #include "phantom/phantom.h"
 #include "references.h"
@@ -563,6 +564,7 @@ std::vector<int> int_list(const std::string& text)
 
 int main(int argc, char** argv)
 {
+    scalemesh::restart_with_huge_pages(argv);
     Settings s;
     std::string boxes = "64,128,256", threads = "1,2";
     CLI::App app{"The whole pipeline against image size, with references and ratios (issue 9)."};

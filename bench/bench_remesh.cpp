@@ -15,6 +15,7 @@
 // edges with length / (K/M d) in [0.45, 1.1], d the stable d of the result,
 // and the same angle fraction.
 
+#include "core/huge_pages.h"
 #include "core/adjacency.h"
 #include "isosurface/marching_cubes.h"
 #include "phantom/phantom.h"
@@ -63,8 +64,9 @@ double fraction_in_band(const SurfaceMesh& surface, const std::vector<double>& d
 
 } // namespace
 
-int main()
+int main(int, char** argv)
 {
+    scalemesh::restart_with_huge_pages(argv);
     const auto torus = make_shape("torus", 1.0);
     Vec3 lo, hi;
     torus->bounds(lo, hi);

@@ -7,6 +7,7 @@
 // each on 1 and 2 threads, the median of repeated runs. Prints a table and
 // writes the figures as JSON (first argument, default bench-surface.json).
 
+#include "core/huge_pages.h"
 #include "isosurface/marching_cubes.h"
 #include "phantom/phantom.h"
 #include "references.h"
@@ -40,6 +41,7 @@ struct Row {
 
 int main(int argc, char** argv)
 {
+    scalemesh::restart_with_huge_pages(argv);
     const std::string json_path = argc > 1 ? argv[1] : "bench-surface.json";
     const int repeats = 5;
     std::vector<Row> rows;

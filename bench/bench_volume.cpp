@@ -8,6 +8,7 @@
 // surface remeshed, as a stand-in for the pipeline's local refinement.
 // Usage: bench_volume [L_max_mm, default 0.7] [voxel_size_mm, default 0.25]
 
+#include "core/huge_pages.h"
 #include "isosurface/marching_cubes.h"
 #include "phantom/phantom.h"
 #include "references.h"
@@ -30,6 +31,7 @@ using namespace scalemesh::bench;
 
 int main(int argc, char** argv)
 {
+    scalemesh::restart_with_huge_pages(argv);
     double L_max = argc > 1 ? std::atof(argv[1]) : 0.7;
     const double h = argc > 2 ? std::atof(argv[2]) : 0.25;
     const auto shape = make_shape("torus", h);

@@ -9,20 +9,11 @@
 #include <fstream>
 #include <memory>
 #include <sstream>
+#include <string_view>
 
 namespace scalemesh {
 
 namespace {
-
-// Faces of tet (a, b, c, d), each counter-clockwise seen from outside the tet.
-constexpr int kFaces[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
-
-struct TetFace {
-    std::array<int32_t, 3> key; // sorted point ids
-    int32_t tet;
-    int8_t local; // which face of the tet
-    bool operator<(const TetFace& o) const { return key != o.key ? key < o.key : tet < o.tet; }
-};
 
 struct PolyFace {
     Triangle points; // normal from owner to neighbour (or out of the mesh)
@@ -31,11 +22,6 @@ struct PolyFace {
     int32_t patch;     // boundary only
 };
 
-Triangle tet_face(const Tet& t, int local)
-{
-    return {t[kFaces[local][0]], t[kFaces[local][1]], t[kFaces[local][2]]};
-}
-
 std::array<int32_t, 3> sorted_key(const Triangle& t)
 {
     std::array<int32_t, 3> k{t[0], t[1], t[2]};
@@ -43,57 +29,72 @@ std::array<int32_t, 3> sorted_key(const Triangle& t)
     return k;
 }
 
-// A buffered writer of OpenFOAM tokens, ASCII or binary blocks.
+// A writer of OpenFOAM tokens, ASCII or binary blocks. Numbers are formatted
+// with std::to_chars into a buffer that goes to the file a megabyte at a time,
+// so a large mesh is neither held as text nor passed through iostream's
+// per-number formatting.
 class FoamWriter {
 public:
     FoamWriter(const std::filesystem::path& path, bool binary) : out_(path, std::ios::binary), binary_(binary)
     {
         if (!out_) throw IoError(path.string(), "cannot open for writing");
+        buffer_.reserve(kBufferBytes + 256);
     }
 
     void header(const std::string& cls, const std::string& object, const std::string& note = "")
     {
-        out_ << "FoamFile\n{\n    version     2.0;\n    format      " << (binary_ ? "binary" : "ascii")
-             << ";\n    arch        \"LSB;label=32;scalar=64\";\n    class       " << cls
-             << ";\n    location    \"constant/polyMesh\";\n";
-        if (!note.empty()) out_ << "    note        \"" << note << "\";\n";
-        out_ << "    object      " << object << ";\n}\n\n";
+        text("FoamFile\n{\n    version     2.0;\n    format      ");
+        text(binary_ ? "binary" : "ascii");
+        text(";\n    arch        \"LSB;label=32;scalar=64\";\n    class       ");
+        text(cls);
+        text(";\n    location    \"constant/polyMesh\";\n");
+        if (!note.empty()) {
+            text("    note        \"");
+            text(note);
+            text("\";\n");
+        }
+        text("    object      ");
+        text(object);
+        text(";\n}\n\n");
     }
 
     void labels(const std::vector<int32_t>& values)
     {
-        out_ << values.size() << "\n(";
+        number(static_cast<int64_t>(values.size()));
+        text("\n(");
         if (binary_) {
-            out_.write(reinterpret_cast<const char*>(values.data()), std::streamsize(values.size() * sizeof(int32_t)));
+            bytes(values.data(), values.size() * sizeof(int32_t));
         } else {
-            out_ << '\n';
-            for (int32_t v : values) out_ << v << '\n';
+            text("\n");
+            for (int32_t v : values) {
+                number(v);
+                character('\n');
+            }
         }
-        out_ << ")\n";
+        text(")\n");
     }
 
     void points(const std::vector<Vec3>& points, double scale)
     {
-        out_ << points.size() << "\n(";
+        number(static_cast<int64_t>(points.size()));
+        text("\n(");
         if (binary_) {
             for (const Vec3& p : points) {
                 const double xyz[3] = {p.x * scale, p.y * scale, p.z * scale};
-                out_.write(reinterpret_cast<const char*>(xyz), sizeof xyz);
+                bytes(xyz, sizeof xyz);
             }
         } else {
-            out_ << '\n';
-            char buf[64];
+            text("\n");
             for (const Vec3& p : points) {
-                out_ << '(';
+                character('(');
                 for (int k = 0; k < 3; ++k) {
-                    const auto r = std::to_chars(buf, buf + sizeof buf, p[k] * scale);
-                    out_.write(buf, r.ptr - buf);
-                    out_ << (k < 2 ? ' ' : ')');
+                    number(p[k] * scale);
+                    character(k < 2 ? ' ' : ')');
                 }
-                out_ << '\n';
+                character('\n');
             }
         }
-        out_ << ")\n";
+        text(")\n");
     }
 
     void faces(const std::vector<PolyFace>& faces)
@@ -110,23 +111,71 @@ public:
             this->labels(labels);
             return;
         }
-        out_ << faces.size() << "\n(\n";
-        for (const PolyFace& f : faces) out_ << "3(" << f.points[0] << ' ' << f.points[1] << ' ' << f.points[2] << ")\n";
-        out_ << ")\n";
+        number(static_cast<int64_t>(faces.size()));
+        text("\n(\n");
+        for (const PolyFace& f : faces) {
+            text("3(");
+            for (int k = 0; k < 3; ++k) {
+                number(f.points[k]);
+                character(k < 2 ? ' ' : ')');
+            }
+            character('\n');
+        }
+        text(")\n");
     }
 
-    std::ostream& raw() { return out_; }
+    void text(std::string_view s)
+    {
+        buffer_.append(s);
+        spill();
+    }
 
     void finish(const std::filesystem::path& path)
     {
-        out_ << "\n// ************************************************************************* //\n";
+        text("\n// ************************************************************************* //\n");
+        flush();
         out_.flush();
         if (!out_) throw IoError(path.string(), "cannot write the file (disk full?)");
     }
 
 private:
+    static constexpr size_t kBufferBytes = size_t(1) << 20;
+
+    void character(char c)
+    {
+        buffer_.push_back(c);
+        spill();
+    }
+
+    template <typename Number>
+    void number(Number value)
+    {
+        char digits[32];
+        const auto r = std::to_chars(digits, digits + sizeof digits, value);
+        buffer_.append(digits, r.ptr);
+        spill();
+    }
+
+    void bytes(const void* data, size_t size)
+    {
+        flush();
+        out_.write(static_cast<const char*>(data), static_cast<std::streamsize>(size));
+    }
+
+    void spill()
+    {
+        if (buffer_.size() >= kBufferBytes) flush();
+    }
+
+    void flush()
+    {
+        out_.write(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
+        buffer_.clear();
+    }
+
     std::ofstream out_;
     bool binary_;
+    std::string buffer_;
 };
 
 std::string patch_name(const TetMesh& mesh, int32_t patch)
@@ -140,8 +189,9 @@ std::string patch_name(const TetMesh& mesh, int32_t patch)
 PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& case_dir, const PolyMeshOptions& options)
 {
     // Validate first: nothing the next tool would choke on is written.
-    const TetMeshFacts facts = tet_mesh_facts(mesh);
     if (mesh.tets.empty()) throw StageError("polyMesh export", "the mesh has no cells");
+    const TetFaceAdjacency adjacency = tet_face_adjacency(mesh);
+    const TetMeshFacts facts = tet_mesh_facts(mesh, adjacency);
     if (facts.nonpositive_tets > 0)
         throw StageError("polyMesh export", std::to_string(facts.nonpositive_tets) +
                                                 " tets have zero or negative volume (inverted cells)");
@@ -166,36 +216,34 @@ PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& 
     }
     std::sort(patch_of.begin(), patch_of.end());
 
-    std::vector<TetFace> all;
-    all.reserve(mesh.tets.size() * 4);
-    for (int32_t t = 0; t < static_cast<int32_t>(mesh.tets.size()); ++t)
-        for (int8_t k = 0; k < 4; ++k) all.push_back({sorted_key(tet_face(mesh.tets[t], k)), t, k});
-    std::sort(all.begin(), all.end());
-
-    std::vector<PolyFace> internal, boundary;
-    internal.reserve(all.size() / 2);
-    for (size_t i = 0; i < all.size();) {
-        if (i + 1 < all.size() && all[i + 1].key == all[i].key) {
-            // The lower tet owns the face; its outward orientation points to the higher.
-            internal.push_back({tet_face(mesh.tets[all[i].tet], all[i].local), all[i].tet, all[i + 1].tet, -1});
-            i += 2;
-        } else {
-            const auto it = std::lower_bound(patch_of.begin(), patch_of.end(), std::make_pair(all[i].key, INT32_MIN));
-            boundary.push_back({tet_face(mesh.tets[all[i].tet], all[i].local), all[i].tet, -1, it->second});
-            i += 1;
+    // Cells in order; each cell owns the faces it shares with higher cells,
+    // taken in the order of those neighbours: upper-triangular order without
+    // sorting the faces. Its outward orientation points to the neighbour.
+    std::vector<PolyFace> faces, boundary;
+    faces.reserve(2 * mesh.tets.size() + mesh.boundary_faces.size() / 2 + 1);
+    boundary.reserve(mesh.boundary_faces.size());
+    for (int32_t t = 0; t < static_cast<int32_t>(mesh.tets.size()); ++t) {
+        const size_t first = faces.size();
+        for (int k = 0; k < 4; ++k) {
+            const int32_t across = adjacency.across[4 * size_t(t) + k];
+            const Triangle points = tet_face(mesh.tets[t], k);
+            if (across > t) {
+                faces.push_back({points, t, across, -1});
+            } else if (across == TetFaceAdjacency::kBoundary) {
+                const auto it = std::lower_bound(patch_of.begin(), patch_of.end(), std::make_pair(sorted_key(points), INT32_MIN));
+                boundary.push_back({points, t, -1, it->second});
+            }
         }
+        std::sort(faces.begin() + first, faces.end(),
+                  [](const PolyFace& a, const PolyFace& b) { return a.neighbour < b.neighbour; });
     }
-    std::sort(internal.begin(), internal.end(), [](const PolyFace& a, const PolyFace& b) {
-        return a.owner != b.owner ? a.owner < b.owner : a.neighbour < b.neighbour;
-    });
-    std::stable_sort(boundary.begin(), boundary.end(), [](const PolyFace& a, const PolyFace& b) {
-        return a.patch != b.patch ? a.patch < b.patch : a.owner < b.owner;
-    });
+    const size_t n_internal = faces.size();
+    std::stable_sort(boundary.begin(), boundary.end(), [](const PolyFace& a, const PolyFace& b) { return a.patch < b.patch; });
 
     PolyMeshCounts counts;
     counts.points = static_cast<int64_t>(mesh.points.size());
     counts.cells = static_cast<int64_t>(mesh.tets.size());
-    counts.internal_faces = static_cast<int64_t>(internal.size());
+    counts.internal_faces = static_cast<int64_t>(n_internal);
     counts.faces = counts.internal_faces + static_cast<int64_t>(boundary.size());
     counts.patch_faces.assign(patch_count, 0);
     for (const PolyFace& f : boundary) ++counts.patch_faces[f.patch];
@@ -222,7 +270,6 @@ PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& 
         w.points(mesh.points, options.scale);
         w.finish(dir / "points");
     }
-    std::vector<PolyFace> faces = std::move(internal);
     faces.insert(faces.end(), boundary.begin(), boundary.end());
     {
         FoamWriter w = open("faces");
@@ -249,7 +296,7 @@ PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& 
     {
         FoamWriter w = open("boundary");
         w.header("polyBoundaryMesh", "boundary");
-        std::ostream& out = w.raw();
+        std::ostringstream out;
         out << patch_count << "\n(\n";
         int64_t start = counts.internal_faces;
         for (int32_t p = 0; p < patch_count; ++p) {
@@ -263,6 +310,7 @@ PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& 
             start += counts.patch_faces[p];
         }
         out << ")\n";
+        w.text(out.str());
         w.finish(dir / "boundary");
     }
     if (options.staged) {

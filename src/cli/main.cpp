@@ -5,6 +5,7 @@
 
 #include "core/atomic_file.h"
 #include "core/errors.h"
+#include "core/huge_pages.h"
 #include "core/version.h"
 #include "cli/progress.h"
 #include "exporters/msh_reader.h"
@@ -39,6 +40,7 @@ std::string extension_of(const std::string& path) { return std::filesystem::path
 
 int main(int argc, char** argv)
 {
+    restart_with_huge_pages(argv);
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
 

@@ -35,7 +35,30 @@ struct TetMeshFacts {
     bool boundary_matches = false;  // the one-tet faces are exactly boundary_faces, same orientation
 };
 
+// The faces of tet (a, b, c, d): face k leaves out corner k and is
+// counter-clockwise seen from outside the tet.
+inline constexpr int kTetFaces[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+
+inline Triangle tet_face(const Tet& t, int k)
+{
+    return {t[kTetFaces[k][0]], t[kTetFaces[k][1]], t[kTetFaces[k][2]]};
+}
+
+// Which tet lies across each tet face, found by bucketing the faces by their
+// smallest point id and sorting each bucket, so without a global sort.
+struct TetFaceAdjacency {
+    static constexpr int32_t kBoundary = -1;   // the face has one tet
+    static constexpr int32_t kOvershared = -2; // three or more tets share it
+    std::vector<int32_t> across;               // across[4 t + k]: the tet across face k of tet t
+    int64_t overshared_faces = 0;              // distinct faces with three or more tets
+};
+
+// Throws std::out_of_range when a tet names a point the mesh does not have.
+TetFaceAdjacency tet_face_adjacency(const TetMesh& mesh);
+
 // Checks the facts every exported mesh must have. Linear in the mesh size.
 TetMeshFacts tet_mesh_facts(const TetMesh& mesh);
+// The same, for a caller that needs the adjacency as well.
+TetMeshFacts tet_mesh_facts(const TetMesh& mesh, const TetFaceAdjacency& adjacency);
 
 } // namespace scalemesh
