@@ -58,16 +58,19 @@ public:
         text(";\n}\n\n");
     }
 
-    void labels(const std::vector<int32_t>& values)
+    // A labelList of n labels, label i being label(i).
+    template <typename Label>
+    void labels(size_t n, const Label& label)
     {
-        number(static_cast<int64_t>(values.size()));
+        number(static_cast<int64_t>(n));
         text("\n(");
-        if (binary_) {
-            bytes(values.data(), values.size() * sizeof(int32_t));
-        } else {
-            text("\n");
-            for (int32_t v : values) {
-                number(v);
+        if (!binary_) text("\n");
+        for (size_t i = 0; i < n; ++i) {
+            const int32_t value = label(i);
+            if (binary_) {
+                bytes(&value, sizeof value);
+            } else {
+                number(value);
                 character('\n');
             }
         }
@@ -101,14 +104,8 @@ public:
     {
         if (binary_) {
             // faceCompactList: the offsets, then the point labels.
-            std::vector<int32_t> offsets(faces.size() + 1), labels;
-            labels.reserve(faces.size() * 3);
-            for (size_t f = 0; f < faces.size(); ++f) {
-                offsets[f + 1] = static_cast<int32_t>(3 * (f + 1));
-                labels.insert(labels.end(), faces[f].points.begin(), faces[f].points.end());
-            }
-            this->labels(offsets);
-            this->labels(labels);
+            labels(faces.size() + 1, [](size_t f) { return static_cast<int32_t>(3 * f); });
+            labels(3 * faces.size(), [&](size_t i) { return faces[i / 3].points[i % 3]; });
             return;
         }
         number(static_cast<int64_t>(faces.size()));
@@ -158,8 +155,8 @@ private:
 
     void bytes(const void* data, size_t size)
     {
-        flush();
-        out_.write(static_cast<const char*>(data), static_cast<std::streamsize>(size));
+        buffer_.append(static_cast<const char*>(data), size);
+        spill();
     }
 
     void spill()
@@ -278,19 +275,15 @@ PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& 
         w.finish(dir / "faces");
     }
     {
-        std::vector<int32_t> owner(faces.size());
-        for (size_t f = 0; f < faces.size(); ++f) owner[f] = faces[f].owner;
         FoamWriter w = open("owner");
         w.header("labelList", "owner", note.str());
-        w.labels(owner);
+        w.labels(faces.size(), [&](size_t f) { return faces[f].owner; });
         w.finish(dir / "owner");
     }
     {
-        std::vector<int32_t> neighbour(static_cast<size_t>(counts.internal_faces));
-        for (size_t f = 0; f < neighbour.size(); ++f) neighbour[f] = faces[f].neighbour;
         FoamWriter w = open("neighbour");
         w.header("labelList", "neighbour", note.str());
-        w.labels(neighbour);
+        w.labels(n_internal, [&](size_t f) { return faces[f].neighbour; });
         w.finish(dir / "neighbour");
     }
     {
