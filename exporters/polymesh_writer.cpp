@@ -187,7 +187,9 @@ PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& 
 {
     // Validate first: nothing the next tool would choke on is written.
     if (mesh.tets.empty()) throw StageError("polyMesh export", "the mesh has no cells");
-    const TetFaceAdjacency adjacency = tet_face_adjacency(mesh);
+    TetFaceAdjacency computed;
+    if (!options.adjacency) computed = tet_face_adjacency(mesh);
+    const TetFaceAdjacency& adjacency = options.adjacency ? *options.adjacency : computed;
     const TetMeshFacts facts = tet_mesh_facts(mesh, adjacency);
     if (facts.nonpositive_tets > 0)
         throw StageError("polyMesh export", std::to_string(facts.nonpositive_tets) +

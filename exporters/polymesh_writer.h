@@ -17,6 +17,9 @@ struct PolyMeshOptions {
     double scale = 1.0;  // coordinates are multiplied by this: 1e-3 writes a mesh in mm as metres
     // Patch type per patch id ("wall" or "patch"); ids not listed are "wall".
     std::vector<std::string> patch_types;
+    // tet_face_adjacency(mesh) when the caller has it (the volume stage
+    // keeps it); computed here otherwise. Either way the mesh is checked.
+    const TetFaceAdjacency* adjacency = nullptr;
     // When given, the written files are handed over here, still under their
     // temporary names, for the caller to commit with its other outputs;
     // otherwise they are moved into place before returning.

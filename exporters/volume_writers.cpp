@@ -17,11 +17,11 @@ namespace {
 
 // The facts every exported volume mesh must have (the same as the polyMesh
 // writer's), and fields of the right length.
-void validate(const TetMesh& mesh, const char* format)
+void validate(const TetMesh& mesh, const char* format, const TetFaceAdjacency* adjacency = nullptr)
 {
     const std::string stage = std::string(format) + " export";
     if (mesh.tets.empty()) throw StageError(stage, "the mesh has no cells");
-    const TetMeshFacts facts = tet_mesh_facts(mesh);
+    const TetMeshFacts facts = adjacency ? tet_mesh_facts(mesh, *adjacency) : tet_mesh_facts(mesh);
     if (facts.nonpositive_tets > 0)
         throw StageError(stage, std::to_string(facts.nonpositive_tets) + " tets have zero or negative volume");
     if (facts.overshared_faces > 0)
@@ -60,7 +60,7 @@ void write_volume_msh(const TetMesh& mesh, const std::filesystem::path& path, co
 {
     if (options.msh_version != 4.1 && options.msh_version != 2.2)
         throw InputError("cannot write MSH version " + std::to_string(options.msh_version), "choose 4.1 or 2.2");
-    validate(mesh, ".msh");
+    validate(mesh, ".msh", options.adjacency);
     AtomicOutput out(path);
 
     GmshSession session;

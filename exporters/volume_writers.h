@@ -15,6 +15,7 @@ struct VolumeMshOptions {
     bool binary = false;
     std::string region = "fluid";   // name of the volume physical group
     std::vector<std::string> comments = {}; // lines of a $Comments section after $MeshFormat (provenance)
+    const TetFaceAdjacency* adjacency = nullptr; // as in PolyMeshOptions
 };
 
 // .msh through the Gmsh SDK: tets (element type 4, tags 1..T in mesh order)

@@ -26,17 +26,18 @@ Triangle canonical(Triangle t)
     return t;
 }
 
-// A tet face in the bucket of its smallest point: the other two, sorted, and
-// the face's slot 4 t + k.
+// A tet face in the bucket of its smallest point: the other two, sorted,
+// packed into one key, and the face's slot 4 t + k.
 struct BucketFace {
-    int32_t second, third;
+    uint64_t others;
     int32_t slot;
-    bool operator<(const BucketFace& o) const
-    {
-        return second != o.second ? second < o.second : third != o.third ? third < o.third : slot < o.slot;
-    }
-    bool same_face(const BucketFace& o) const { return second == o.second && third == o.third; }
+    bool operator<(const BucketFace& o) const { return others != o.others ? others < o.others : slot < o.slot; }
 };
+
+uint64_t pack(int32_t second, int32_t third)
+{
+    return (static_cast<uint64_t>(static_cast<uint32_t>(second)) << 32) | static_cast<uint32_t>(third);
+}
 
 } // namespace
 
@@ -83,7 +84,7 @@ TetFaceAdjacency tet_face_adjacency(const TetMesh& mesh)
             for (int k = 0; k < 4; ++k) {
                 std::array<int32_t, 3> f = tet_face(mesh.tets[t], k);
                 std::sort(f.begin(), f.end());
-                buckets[fill[f[0]]++] = {f[1], f[2], static_cast<int32_t>(4 * t + k)};
+                buckets[fill[f[0]]++] = {pack(f[1], f[2]), static_cast<int32_t>(4 * t + k)};
             }
         }
     });
@@ -99,7 +100,7 @@ TetFaceAdjacency tet_face_adjacency(const TetMesh& mesh)
             std::sort(first, last);
             for (BucketFace* i = first; i != last;) {
                 BucketFace* j = i + 1;
-                while (j != last && j->same_face(*i)) ++j;
+                while (j != last && j->others == i->others) ++j;
                 if (j - i == 2) {
                     result.across[i[0].slot] = i[1].slot / 4;
                     result.across[i[1].slot] = i[0].slot / 4;
@@ -123,6 +124,10 @@ TetMeshFacts tet_mesh_facts(const TetMesh& mesh)
 
 TetMeshFacts tet_mesh_facts(const TetMesh& mesh, const TetFaceAdjacency& adjacency)
 {
+    if (adjacency.across.size() != 4 * mesh.tets.size())
+        throw std::invalid_argument("the face adjacency is not that of this mesh (" +
+                                    std::to_string(adjacency.across.size()) + " faces for " +
+                                    std::to_string(mesh.tets.size()) + " tets)");
     TetMeshFacts facts;
     facts.min_tet_volume = std::numeric_limits<double>::infinity();
     std::vector<Triangle> boundary;

@@ -58,7 +58,8 @@ TetFaceAdjacency tet_face_adjacency(const TetMesh& mesh);
 
 // Checks the facts every exported mesh must have. Linear in the mesh size.
 TetMeshFacts tet_mesh_facts(const TetMesh& mesh);
-// The same, for a caller that needs the adjacency as well.
+// The same with the adjacency of mesh.tets at hand (an exporter given the
+// volume stage's). Throws std::invalid_argument when it has the wrong size.
 TetMeshFacts tet_mesh_facts(const TetMesh& mesh, const TetFaceAdjacency& adjacency);
 
 } // namespace scalemesh

@@ -169,7 +169,7 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
     }
     if (run.volume) {
         const VolumeResult& v = *run.volume;
-        const TetMeshFacts facts = tet_mesh_facts(v.mesh);
+        const TetMeshFacts facts = tet_mesh_facts(v.mesh, v.adjacency);
         const auto quality = [](const QualityReport& q) {
             return nlohmann::json{{"tets", q.tets},
                                   {"min_aspect_ratio", q.min_aspect_ratio},
@@ -273,7 +273,7 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
         for (const std::string& name : config.volume_outputs) {
             if (std::filesystem::path(name).extension() == ".vtk") write_volume_vtk(mesh, stage(name));
             else write_volume_msh(mesh, stage(name), {.msh_version = config.msh_version, .binary = config.msh_binary,
-                                                      .comments = comments});
+                                                      .comments = comments, .adjacency = &result.run.volume->adjacency});
         }
         // Fig. 19: the aspect-ratio histograms before and after improvement.
         const VolumeResult& v = *result.run.volume;
@@ -287,7 +287,8 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
             std::vector<std::string> types = {"wall"};
             for (size_t c = 0; c < result.run.caps.size(); ++c) types.push_back("patch");
             const PolyMeshCounts counts =
-                write_polymesh(mesh, dir, {.binary = config.openfoam_binary, .scale = 1e-3, .patch_types = types, .staged = &pending});
+                write_polymesh(mesh, dir, {.binary = config.openfoam_binary, .scale = 1e-3, .patch_types = types,
+                                     .adjacency = &result.run.volume->adjacency, .staged = &pending});
             result.polymesh = counts;
             std::vector<std::string> names;
             std::vector<PatchRole> roles;

@@ -303,7 +303,8 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
     }
 
     renumber_for_locality(result, n);
-    const TetMeshFacts facts = tet_mesh_facts(mesh);
+    result.adjacency = tet_face_adjacency(mesh);
+    const TetMeshFacts facts = tet_mesh_facts(mesh, result.adjacency);
     if (facts.nonpositive_tets != 0 || !facts.boundary_matches)
         throw StageError("volume", std::to_string(facts.nonpositive_tets) +
                                        " tets are not positive or the mesh boundary is not the surface (" +

@@ -45,6 +45,7 @@ struct VolumeParams {
 
 struct VolumeResult {
     TetMesh mesh; // points 0..n-1 are the surface points, boundary_faces the surface triangles
+    TetFaceAdjacency adjacency; // tet_face_adjacency(mesh), for the exporters' checks
     QualityReport before_flips, after_flips, after_slivers;
     std::vector<int32_t> realised_layers; // per surface node: consecutive layermaking points in the mesh
     std::vector<int32_t> point_generator; // per mesh point: generating surface node (itself for surface points;

@@ -88,6 +88,18 @@ TEST(TetFaceAdjacency, APointOutOfRangeIsRefused)
     EXPECT_THROW(tet_mesh_facts(box), std::out_of_range);
 }
 
+TEST(TetMeshFacts, AGivenAdjacencyGivesTheSameFactsAndMustFitTheMesh)
+{
+    TetMesh box = box_of_cubes(2, 2, 2);
+    const TetFaceAdjacency adjacency = tet_face_adjacency(box);
+    const TetMeshFacts own = tet_mesh_facts(box), given = tet_mesh_facts(box, adjacency);
+    EXPECT_EQ(own.boundary_faces, given.boundary_faces);
+    EXPECT_EQ(own.volume, given.volume);
+    EXPECT_TRUE(given.boundary_matches);
+    box.tets.pop_back();
+    EXPECT_THROW(tet_mesh_facts(box, adjacency), std::invalid_argument);
+}
+
 TEST(TetMeshFacts, BoxOfCubesHoldsAndAMissingTetBreaksTheBoundary)
 {
     TetMesh box = box_of_cubes(2, 3, 4);
