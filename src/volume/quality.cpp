@@ -21,27 +21,23 @@ double tet_aspect_ratio(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3&
 
 double tet_min_dihedral_deg(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d)
 {
-    // The dihedral angle at edge (p, q) is the angle between the two faces
-    // through it, measured between the other two vertices projected on the
-    // plane normal to the edge. The smallest angle has the largest cosine,
-    // so one acos per tet is enough.
+    // The dihedral angle at the edge where faces k and l meet is pi minus the
+    // angle between their outward normals: cos = -n_k . n_l. The smallest
+    // angle has the largest cosine, so one acos per tet is enough.
+    if (!(tet_volume6(a, b, c, d) > 0)) return 0;
     const Vec3 v[4] = {a, b, c, d};
+    Vec3 normal[4];
+    for (int k = 0; k < 4; ++k) {
+        const Vec3 &p = v[kTetFaces[k][0]], &q = v[kTetFaces[k][1]], &r = v[kTetFaces[k][2]];
+        const Vec3 n = cross(q - p, r - p);
+        const double length = norm(n);
+        if (!(length > 0)) return 0;
+        normal[k] = n / length;
+    }
     double largest_cosine = -1.0;
-    for (int i = 0; i < 4; ++i)
-        for (int j = i + 1; j < 4; ++j) {
-            int others[2], o = 0;
-            for (int t = 0; t < 4; ++t)
-                if (t != i && t != j) others[o++] = t;
-            const int k = others[0], l = others[1];
-            const Vec3 e = normalized(v[j] - v[i]);
-            Vec3 u = v[k] - v[i], w = v[l] - v[i];
-            u = u - dot(u, e) * e;
-            w = w - dot(w, e) * e;
-            const double nu = norm(u), nw = norm(w);
-            if (!(nu > 0) || !(nw > 0)) return 0;
-            largest_cosine = std::max(largest_cosine, std::clamp(dot(u, w) / (nu * nw), -1.0, 1.0));
-        }
-    return tet_volume6(a, b, c, d) > 0 ? std::acos(largest_cosine) * 180.0 / M_PI : 0.0;
+    for (int k = 0; k < 4; ++k)
+        for (int l = k + 1; l < 4; ++l) largest_cosine = std::max(largest_cosine, -dot(normal[k], normal[l]));
+    return std::acos(std::clamp(largest_cosine, -1.0, 1.0)) * 180.0 / M_PI;
 }
 
 QualityReport quality_report(const TetMesh& mesh)
