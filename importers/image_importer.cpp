@@ -251,25 +251,104 @@ void check_nifti(const std::filesystem::path& path)
                          hint);
 }
 
-// ITK 5.2's MetaIO copies every header key (the text up to '=', ':' or the
-// end of the line, up to 500 characters) into a field name of 255 characters
-// with strcpy: a longer key overflows it (found by fuzzing, fuzz/regressions/
-// metaimage). The header ends with the ElementDataFile line; up to there, no
-// run of characters between separators may be that long.
+// The key of a MetaImage header line as MetaIO's MET_Read takes it: from the
+// first non-blank character to the first '=' or ':' (or the line's end),
+// trailing blanks removed; and the value after the separator, trimmed.
+std::pair<std::string, std::optional<std::string>> metaimage_field(const std::string& line)
+{
+    const auto trim = [](const std::string& text) {
+        const size_t first = text.find_first_not_of(" \t\r");
+        return first == std::string::npos ? std::string()
+                                          : text.substr(first, text.find_last_not_of(" \t\r") + 1 - first);
+    };
+    const size_t separator = line.find_first_of("=:");
+    if (separator == std::string::npos) return {trim(line), std::nullopt};
+    return {trim(line.substr(0, separator)), trim(line.substr(separator + 1))};
+}
+
+// Checks of a MetaImage header that ITK 5.2's MetaIO does not make, up to the
+// ElementDataFile line that ends the header (found by fuzzing, fuzz/regressions/
+// metaimage):
+// - MetaIO copies every key (the text up to '=', ':' or the end of the line,
+//   up to 500 characters) into a field name of 255 characters with strcpy: a
+//   longer key overflows it; no run of characters between separators may be
+//   that long.
+// - For compressed data it allocates and reads CompressedDataSize bytes, as
+//   many as the header says, and inflates them; a zlib stream that asks for a
+//   preset dictionary makes its MET_PerformUncompression loop forever
+//   (inflate returns Z_NEED_DICT, which it takes for progress). So
+//   CompressedDataSize must be a positive integer no larger than the data
+//   that follow the header (or the data file), and the stream must not ask
+//   for a dictionary.
 void check_metaimage(const std::filesystem::path& path)
 {
+    const std::string name = path.string();
+    const std::string hint = "the header is corrupt, or the file is not a MetaImage; re-export it";
     std::ifstream in(path, std::ios::binary);
+    bool compressed = false;
+    std::optional<std::string> compressed_size;
     for (std::string line; std::getline(in, line);) {
         size_t run = 0;
         for (const char c : line) {
             run = c == '=' || c == ':' || c == '\r' ? 0 : run + 1;
             if (run >= MET_MAX_NAME_SIZE)
-                throw InputError(path.string() + " is not a MetaImage file: its header has a key of more than " +
+                throw InputError(name + " is not a MetaImage file: its header has a key of more than " +
                                      std::to_string(MET_MAX_NAME_SIZE - 1) + " characters",
-                                 "the header is corrupt, or the file is not a MetaImage; re-export it");
+                                 hint);
         }
-        const size_t key = line.find_first_not_of(" \t");
-        if (key != std::string::npos && line.compare(key, 15, "ElementDataFile") == 0) return;
+        const auto [key, value] = metaimage_field(line);
+        if ((key == "CompressedData" || key == "CompressedDataSize" || key == "ElementDataFile") && !value)
+            throw InputError(name + " has a header line '" + key + "' without '=' and a value", hint);
+        // MetaIO takes a value beginning with T, t or 1 for true.
+        if (key == "CompressedData")
+            compressed = !value->empty() && std::string_view("Tt1").find(value->front()) != std::string_view::npos;
+        if (key == "CompressedDataSize") compressed_size = value;
+        if (key != "ElementDataFile") continue;
+
+        if (!compressed) return;
+        if (!compressed_size)
+            throw InputError(name + " has compressed data but no CompressedDataSize in its header", hint);
+        const std::string& text = *compressed_size;
+        if (text.empty() || text.size() > 15 || text.find_first_not_of("0123456789") != std::string::npos ||
+            std::stoll(text) == 0)
+            throw InputError(name + " has CompressedDataSize = '" + text.substr(0, 40) +
+                                 "', not a positive whole number of bytes",
+                             hint);
+        const int64_t size = std::stoll(text);
+        std::filesystem::path data_path = path;
+        std::error_code ec;
+        const auto header_size = std::filesystem::file_size(path, ec);
+        if (ec) return;
+        // At the end of the file (no newline after the line) tellg fails: no data follow.
+        int64_t data_offset = in.tellg() < 0 ? static_cast<int64_t>(header_size) : static_cast<int64_t>(in.tellg());
+        if (*value != "LOCAL") {
+            if (value->starts_with("LIST") || value->find_first_of("% \t") != std::string::npos)
+                throw InputError(name + " has compressed data in a list or pattern of files, which is not read",
+                                 "save the image as one .mha file or one .mhd with one data file");
+            data_path = path.parent_path() / *value;
+            data_offset = 0;
+        }
+        const auto file_size = std::filesystem::file_size(data_path, ec);
+        if (ec) return; // ITK reports the missing data file
+        const int64_t available = std::max<int64_t>(0, static_cast<int64_t>(file_size) - data_offset);
+        if (size > available)
+            throw InputError(name + " is truncated or its header is corrupt: CompressedDataSize is " + text +
+                                 " bytes, but " + (*value == "LOCAL" ? "only " + std::to_string(available) +
+                                                                             " bytes of data follow the header"
+                                                                       : data_path.string() + " holds " +
+                                                                             std::to_string(available) + " bytes"),
+                             "the file may be truncated or corrupt; re-export it");
+        // A zlib header (RFC 1950): compression method 8, a multiple of 31,
+        // and FDICT (bit 5 of the second byte) for a preset dictionary.
+        std::array<unsigned char, 2> head{};
+        std::ifstream data(data_path, std::ios::binary);
+        data.seekg(data_offset);
+        data.read(reinterpret_cast<char*>(head.data()), 2);
+        if (data && (head[0] & 0x0f) == 8 && (head[0] * 256 + head[1]) % 31 == 0 && (head[1] & 0x20) != 0)
+            throw InputError(name + " has compressed data that ask for a preset zlib dictionary, which MetaImage "
+                                    "files do not carry",
+                             "the file may be truncated or corrupt; re-export it");
+        return;
     }
 }
 

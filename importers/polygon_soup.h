@@ -22,7 +22,8 @@ struct PolygonSoup {
 };
 
 // The whole file. Throws IoError when it is missing, a directory or
-// unreadable, and InputError when it is empty.
+// unreadable, and InputError when it is empty. Defined with the STL reader
+// (stl_importer.cpp), which the surface_io library builds alone.
 std::string read_file_bytes(const std::filesystem::path& path);
 
 // Checks every coordinate is finite, every polygon has at least three corners

@@ -1,6 +1,7 @@
 #include "importers/stl_importer.h"
 
 #include "core/errors.h"
+#include "importers/polygon_soup.h"
 
 #include <algorithm>
 #include <array>
@@ -23,18 +24,6 @@ using Corner = std::array<float, 3>; // one triangle corner as stored in STL
 
 constexpr uint64_t kHeaderBytes = 84;
 constexpr uint64_t kFacetBytes = 50;
-
-std::string read_bytes(const std::filesystem::path& path)
-{
-    std::error_code ec;
-    if (!std::filesystem::exists(path, ec)) throw IoError(path.string(), "no such file");
-    if (std::filesystem::is_directory(path, ec)) throw IoError(path.string(), "is a directory, not an STL file");
-    std::ifstream file(path, std::ios::binary);
-    if (!file) throw IoError(path.string(), std::string("cannot open the file: ") + std::strerror(errno));
-    std::string bytes((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
-    if (file.bad()) throw IoError(path.string(), "reading the file failed");
-    return bytes;
-}
 
 uint32_t header_count(const std::string& bytes)
 {
@@ -230,13 +219,25 @@ SurfaceMesh weld(std::vector<Corner>& corners, double scale, int64_t* degenerate
 
 } // namespace
 
+std::string read_file_bytes(const std::filesystem::path& path)
+{
+    std::error_code ec;
+    if (!std::filesystem::exists(path, ec)) throw IoError(path.string(), "no such file; check the path");
+    if (std::filesystem::is_directory(path, ec)) throw IoError(path.string(), "is a directory, not a surface file");
+    std::ifstream file(path, std::ios::binary);
+    if (!file) throw IoError(path.string(), std::string("cannot open the file: ") + std::strerror(errno));
+    std::string bytes((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+    if (file.bad()) throw IoError(path.string(), "reading the file failed");
+    if (bytes.empty()) throw InputError(path.string() + " is empty", "export the surface again");
+    return bytes;
+}
+
 SurfaceMesh read_stl(const std::filesystem::path& path, double scale, int64_t* degenerate_removed)
 {
     if (!(std::isfinite(scale) && scale > 0))
         throw InputError("STL scale factor " + std::to_string(scale) + " is not a positive number",
                          "give the factor from the file's units to mm, e.g. 1000 for metres");
-    const std::string bytes = read_bytes(path);
-    if (bytes.empty()) throw InputError(path.string() + " is empty", "export the surface again");
+    const std::string bytes = read_file_bytes(path);
 
     std::vector<Corner> corners;
     if (is_binary(bytes)) {

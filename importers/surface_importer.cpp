@@ -2,16 +2,14 @@
 
 #include "core/errors.h"
 #include "exporters/msh_reader.h"
+#include "importers/msh_check.h"
 #include "importers/polygon_soup.h"
 #include "importers/stl_importer.h"
 
 #include <algorithm>
 #include <bit>
 #include <cctype>
-#include <cerrno>
 #include <cmath>
-#include <cstring>
-#include <fstream>
 #include <limits>
 #include <unordered_map>
 
@@ -36,19 +34,6 @@ struct PointHash {
 };
 
 } // namespace
-
-std::string read_file_bytes(const std::filesystem::path& path)
-{
-    std::error_code ec;
-    if (!std::filesystem::exists(path, ec)) throw IoError(path.string(), "no such file; check the path");
-    if (std::filesystem::is_directory(path, ec)) throw IoError(path.string(), "is a directory, not a surface file");
-    std::ifstream file(path, std::ios::binary);
-    if (!file) throw IoError(path.string(), std::string("cannot open the file: ") + std::strerror(errno));
-    std::string bytes((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
-    if (file.bad()) throw IoError(path.string(), "reading the file failed");
-    if (bytes.empty()) throw InputError(path.string() + " is empty", "export the surface again");
-    return bytes;
-}
 
 void require_scale(double scale)
 {
@@ -148,8 +133,9 @@ double unit_to_mm(const std::string& unit)
 SurfaceMesh read_msh_surface_mesh(const std::filesystem::path& path, double scale)
 {
     require_scale(scale);
-    // Gmsh reports a missing file in its own words; say it in ours first.
-    read_file_bytes(path);
+    // Gmsh reports a missing file in its own words, and trusts what a file
+    // says (importers/msh_check.h): both are checked here first.
+    check_msh_file(read_file_bytes(path), path);
     SurfaceMesh msh;
     try {
         msh = read_msh_surface(path).mesh;

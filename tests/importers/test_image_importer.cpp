@@ -656,6 +656,45 @@ TEST(ImageImporter, RefusesMalformedFiles)
                                        mha({2, 2, 2}, {1, 1, 1}, {0, 0, 0}, "MET_UCHAR", std::string(8, '\1')));
     EXPECT_THROW(read_image(s.dir / "key.mha"), InputError);
 
+    // Compressed MetaImage data that ITK's MetaIO would read past or inflate
+    // forever (found by fuzzing, fuzz/regressions/metaimage): CompressedDataSize
+    // missing, not a positive whole number, or larger than the data that
+    // follow the header; and a zlib stream asking for a preset dictionary
+    // (MET_PerformUncompression loops on inflate's Z_NEED_DICT).
+    std::vector<float> ramp(6 * 6 * 6);
+    for (size_t i = 0; i < ramp.size(); ++i) ramp[i] = static_cast<float>(i % 6) - 2.5f;
+    const std::string zipped = compressed_mha({6, 6, 6}, "MET_FLOAT", raw(ramp));
+    write_bytes(s.dir / "zipped.mha", zipped);
+    EXPECT_NO_THROW(read_image(s.dir / "zipped.mha", {.level_set = true}));
+    const size_t size_at = zipped.find("CompressedDataSize = ");
+    const std::string size_line = zipped.substr(size_at, zipped.find('\n', size_at) + 1 - size_at);
+    const size_t data_at = zipped.find("LOCAL\n") + 6;
+    const std::string packed_size = std::to_string(zipped.size() - data_at);
+    const auto expect_refused = [&](const std::string& name, const std::string& bytes, const std::string& mentions) {
+        write_bytes(s.dir / name, bytes);
+        try {
+            read_image(s.dir / name);
+            ADD_FAILURE() << name << " was read";
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find(mentions), std::string::npos) << name << ": " << e.what();
+        }
+    };
+    std::string no_size = zipped;
+    no_size.erase(size_at, size_line.size());
+    expect_refused("no_size.mha", no_size, "no CompressedDataSize");
+    for (const std::string bad : {"-5", "12abc", "0", "1e3"}) {
+        std::string odd = zipped;
+        odd.replace(size_at, size_line.size(), "CompressedDataSize = " + bad + "\n");
+        expect_refused("odd_size.mha", odd, "CompressedDataSize = '" + bad + "'");
+    }
+    std::string large = zipped;
+    large.replace(size_at, size_line.size(), "CompressedDataSize = 692\n");
+    expect_refused("large_size.mha", large, "only " + packed_size + " bytes of data follow the header");
+    std::string dictionary = zipped;
+    dictionary[data_at] = 'x'; // 0x78 0x20: deflate, FDICT set, a multiple of 31
+    dictionary[data_at + 1] = ' ';
+    expect_refused("dictionary.mha", dictionary, "preset zlib dictionary");
+
     // Zero sizes.
     Nifti zero = label_image();
     zero.dim[3] = 0;

@@ -268,9 +268,106 @@ TEST(SurfaceImporter, RefusesMalformedMsh)
     expect_input_error(p, replace_first(good, "$Elements\n12\n", "$Elements\n0\n").substr(0, good.find("$Elements") + 12) +
                               "$EndElements\n",
                        "no triangles");
-    expect_input_error(p, msh_text(with_index(quad_cube(), 99)), "node index 100");
+    expect_input_error(p, msh_text(with_index(quad_cube(), 99)), "node 100, which the $Nodes section does not define");
     expect_input_error(p, good.substr(0, good.size() / 2), "");
     expect_input_error(p, replace_first(good, "1 -1 -1 -1", "1 -1 nan -1"), "");
+}
+
+// The icosphere as MSH 4.1 ASCII, as Gmsh writes it: one surface entity, its
+// nodes in one block and its triangles in another.
+std::string msh41_text(const PolyMesh& m)
+{
+    std::ostringstream o;
+    o.precision(17);
+    const size_t n = m.points.size(), t = m.faces.size();
+    o << "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Entities\n0 0 1 0\n1 -1 -1 -1 1 1 1 0 0\n$EndEntities\n";
+    o << "$Nodes\n1 " << n << " 1 " << n << "\n2 1 0 " << n << '\n';
+    for (size_t i = 0; i < n; ++i) o << i + 1 << '\n';
+    for (const Vec3& p : m.points) o << p.x << ' ' << p.y << ' ' << p.z << '\n';
+    o << "$EndNodes\n$Elements\n1 " << t << " 1 " << t << "\n2 1 2 " << t << '\n';
+    for (size_t f = 0; f < t; ++f)
+        o << f + 1 << ' ' << m.faces[f][0] + 1 << ' ' << m.faces[f][1] + 1 << ' ' << m.faces[f][2] + 1 << '\n';
+    o << "$EndElements\n";
+    return o.str();
+}
+
+// The same mesh as binary MSH 2.2: counts on text lines, then records of
+// little-endian ints and doubles.
+std::string msh22_binary(const PolyMesh& m)
+{
+    std::string o = "$MeshFormat\n2.2 1 8\n";
+    put(o, int32_t{1}, false);
+    o += "\n$EndMeshFormat\n$Nodes\n" + std::to_string(m.points.size()) + "\n";
+    for (size_t i = 0; i < m.points.size(); ++i) {
+        put(o, static_cast<int32_t>(i + 1), false);
+        for (const double x : {m.points[i].x, m.points[i].y, m.points[i].z}) put(o, x, false);
+    }
+    o += "\n$EndNodes\n$Elements\n" + std::to_string(m.faces.size()) + "\n";
+    for (const int32_t v : {2, static_cast<int32_t>(m.faces.size()), 2}) put(o, v, false); // type, count, tags
+    for (size_t f = 0; f < m.faces.size(); ++f)
+        for (const int32_t v : {static_cast<int32_t>(f + 1), 0, 1, m.faces[f][0] + 1, m.faces[f][1] + 1,
+                                m.faces[f][2] + 1})
+            put(o, v, false);
+    return o + "\n$EndElements\n";
+}
+
+// `msh41` with the line of its first element replaced by `line`.
+std::string with_first_element(const std::string& msh41, const std::string& line)
+{
+    const size_t start = msh41.find('\n', msh41.find("$Elements\n") + 10);
+    const size_t first = msh41.find('\n', start + 1) + 1;
+    return msh41.substr(0, first) + line + msh41.substr(msh41.find('\n', first));
+}
+
+// Gmsh 4.8 trusts what an MSH file says: a node tag beyond int in an MSH4
+// element made it segfault (found by fuzzing, fuzz/regressions/msh), and
+// counts size its arrays before anything is read. read_surface checks the
+// file first.
+TEST(SurfaceImporter, RefusesMshThatGmshWouldMisread)
+{
+    const TempDir tmp;
+    const auto p = tmp.path / "bad.msh";
+    const PolyMesh sphere = icosphere(1);
+    const std::string good41 = msh41_text(sphere);
+    const std::string good22 = msh22_binary(sphere);
+    for (const auto& [name, good] : {std::pair{"4.1 ASCII", good41}, std::pair{"2.2 binary", good22}}) {
+        write_text(p, good);
+        EXPECT_EQ(read_surface(p).triangles.size(), sphere.faces.size()) << name << " is read";
+    }
+
+    // The fuzzing find: an element's node tag of 234222412109 (an int of
+    // 2^31 or more reads out of bounds in GModel::getMeshVertexByTag).
+    expect_input_error(p, with_first_element(good41, "1 1 234222412109 3"), "'234222412109'");
+    // A tag within int that no node has, a zero and a negative tag.
+    expect_input_error(p, with_first_element(good41, "1 1 2 77"),
+                       "element 1 refers to node 77, which the $Nodes section does not define");
+    expect_input_error(p, with_first_element(good41, "1 1 0 3"), "node tag of element 1 '0'");
+    expect_input_error(p, with_first_element(good41, "1 1 -2 3"), "node tag of element 1 '-2'");
+    // The same in MSH 2.2 text: an undefined node, and a node defined twice.
+    const std::string good22_text = msh_text(sphere);
+    expect_input_error(p, msh_text(with_index(sphere, 3999)), "refers to node 4000");
+    expect_input_error(p, replace_first(good22_text, "\n2 ", "\n1 "), "node 1 is defined twice");
+    // ... and in binary: the first element's first node tag set to 4000.
+    std::string bad22 = good22;
+    const size_t first_element = bad22.find("$Elements\n") + 10 + std::to_string(sphere.faces.size()).size() + 1 + 12;
+    const int32_t undefined = 4000;
+    std::memcpy(bad22.data() + first_element + 12, &undefined, 4);
+    expect_input_error(p, bad22, "refers to node 4000");
+
+    // Counts larger than the file, which Gmsh would allocate for first.
+    const std::string nodes_header = "$Nodes\n1 " + std::to_string(sphere.points.size());
+    expect_input_error(p, replace_first(good41, nodes_header, "$Nodes\n1 2000000000"),
+                       "it promises 2000000000 nodes");
+    expect_input_error(p, replace_first(good22_text, "$Nodes\n42\n", "$Nodes\n2000000000\n"),
+                       "it promises 2000000000 nodes");
+    // Block counts that disagree with the header (Gmsh writes past its array).
+    expect_input_error(p, replace_first(good41, "2 1 0 42\n", "2 1 0 41\n"), "its blocks hold 41");
+    // An element in an entity of another dimension, a section without end.
+    expect_input_error(p, replace_first(good41, "\n2 1 2 80\n", "\n1 1 2 80\n"), "(2D) in a 1D entity");
+    expect_input_error(p, replace_first(good41, "$EndNodes", "$EndNodez"), "where $EndNodes should be");
+    // Physical names index an array of four by dimension.
+    const std::string names = "$PhysicalNames\n1\n7 1 \"wall\"\n$EndPhysicalNames\n";
+    expect_input_error(p, replace_first(good41, "$Entities", names + "$Entities"), "dimension of physical name 1 '7'");
 }
 
 TEST(SurfaceImporter, StlThroughReadSurfaceRefusesLikeReadStl)

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 #include <openvdb/io/File.h>
 
+#include <cstring>
 #include <fstream>
 #include <random>
 
@@ -114,6 +115,65 @@ TEST(VdbImporter, RefusesMissingCorruptAndEmptyFiles)
     auto empty = openvdb::FloatGrid::create(0.0f);
     write_vdb(*empty, s.path / "empty.vdb");
     EXPECT_THROW(read_vdb(s.path / "empty.vdb"), InputError);
+}
+
+uint32_t u32_at(const std::string& bytes, size_t at)
+{
+    uint32_t v = 0;
+    std::memcpy(&v, bytes.data() + at, 4);
+    return v;
+}
+
+template <typename T>
+std::string with_value_at(std::string bytes, size_t at, T value)
+{
+    std::memcpy(bytes.data() + at, &value, sizeof(T));
+    return bytes;
+}
+
+// OpenVDB 10 trusts the lengths and offsets in a file: a grid name of length
+// 2^31 made it allocate and clear 2 GB (found by fuzzing). read_vdb walks the
+// header, the descriptors and each grid's metadata first.
+TEST(VdbImporter, RefusesLengthsAndOffsetsBeyondTheFile)
+{
+    const TempDir s;
+    auto grid = openvdb::FloatGrid::create(0.0f);
+    grid->setName("label");
+    for (int x = 0; x < 3; ++x) grid->tree().setValueOn({x, 0, 0}, 1.0f);
+    write_vdb(*grid, s.path / "good.vdb");
+    std::ifstream in(s.path / "good.vdb", std::ios::binary);
+    const std::string good((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    ASSERT_NO_THROW(read_vdb(s.path / "good.vdb"));
+
+    // Magic, versions, offsets flag and UUID take 57 bytes; then the file's
+    // metadata (no items), the grid count, and the first descriptor: name,
+    // type and instance parent as length and characters, then three offsets.
+    ASSERT_EQ(u32_at(good, 57), 0u);
+    const size_t name_at = 65;
+    size_t at = name_at;
+    for (int string = 0; string < 3; ++string) at += 4 + u32_at(good, at);
+    const size_t offsets_at = at;
+    int64_t grid_pos = 0;
+    std::memcpy(&grid_pos, good.data() + offsets_at, 8);
+
+    const auto expect_refused = [&](const std::string& bytes, const std::string& mentions) {
+        std::ofstream(s.path / "bad.vdb", std::ios::binary) << bytes;
+        try {
+            read_vdb(s.path / "bad.vdb");
+            ADD_FAILURE() << "read: " << mentions;
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find(mentions), std::string::npos) << e.what();
+        }
+    };
+    expect_refused(with_value_at(good, name_at, uint32_t{1} << 31), "name of grid 1 is 2147483648 characters long");
+    expect_refused(with_value_at(good, 61, int32_t{1000000}), "a grid count of 1000000");
+    expect_refused(with_value_at(good, offsets_at + 16, static_cast<int64_t>(good.size()) + 1),
+                   "ends past the end of the file");
+    expect_refused(with_value_at(good, offsets_at + 8, grid_pos - 1), "out of order");
+    // The grid's metadata: compression flags, then the item count.
+    expect_refused(with_value_at(good, static_cast<size_t>(grid_pos) + 4, uint32_t{0xffffffff}),
+                   "with 4294967295 items");
+    expect_refused(with_value_at(good, static_cast<size_t>(grid_pos), uint32_t{64}), "unknown compression flags 64");
 }
 
 TEST(VdbImporter, WriteLeavesNoFileWhenTheDirectoryIsMissing)
