@@ -152,6 +152,16 @@ SurfaceMesh read_msh_surface_mesh(const std::filesystem::path& path, double scal
     return weld_polygons(soup, scale, path);
 }
 
+TetMesh read_msh_tet_mesh(const std::filesystem::path& path)
+{
+    check_msh_file(read_file_bytes(path), path);
+    try {
+        return read_msh_volume(path);
+    } catch (const IoError& e) {
+        throw InputError(std::string(e.what()), "the file is damaged or not a mesh: write it again");
+    }
+}
+
 SurfaceMesh read_surface(const std::filesystem::path& path, double scale)
 {
     require_scale(scale);

@@ -4,6 +4,7 @@
 // instead of marching cubes (DESIGN.md, the import stage).
 
 #include "core/surface_mesh.h"
+#include "core/tet_mesh.h"
 
 #include <filesystem>
 #include <string>
@@ -51,5 +52,11 @@ SurfaceMesh read_ply(const std::filesystem::path& path, double scale = 1.0);
 SurfaceMesh read_obj(const std::filesystem::path& path, double scale = 1.0);
 SurfaceMesh read_vtp(const std::filesystem::path& path, double scale = 1.0);
 SurfaceMesh read_msh_surface_mesh(const std::filesystem::path& path, double scale = 1.0);
+
+// A volume .msh (the mesh.msh scalemesh run writes, for `scalemesh check`),
+// checked as read_surface checks a .msh before Gmsh reads it. Throws
+// IoError when the file is missing or unreadable, InputError when it is
+// damaged or holds no tetrahedra.
+TetMesh read_msh_tet_mesh(const std::filesystem::path& path);
 
 } // namespace scalemesh

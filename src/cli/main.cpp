@@ -10,6 +10,7 @@
 #include "cli/progress.h"
 #include "exporters/msh_reader.h"
 #include "exporters/surface_writers.h"
+#include "importers/surface_importer.h"
 #include "importers/vdb_importer.h"
 #include "phantom/phantom.h"
 #include "pipeline/memory_estimate.h"
@@ -158,7 +159,7 @@ int main(int argc, char** argv)
             if (extension_of(check_mesh) != ".msh")
                 throw InputError("cannot check '" + check_mesh + "': only Gmsh .msh volume meshes are read",
                                  "give the mesh.msh that scalemesh run writes");
-            const TetMesh mesh = read_msh_volume(check_mesh);
+            const TetMesh mesh = read_msh_tet_mesh(check_mesh);
             const TetMeshFacts facts = tet_mesh_facts(mesh);
             const QualityReport q = quality_report(mesh);
             std::printf("%s\n  points %zu, tets %zu, boundary triangles %zu, volume %.9g mm^3\n", check_mesh.c_str(),

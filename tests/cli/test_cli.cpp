@@ -126,6 +126,9 @@ TEST(Cli, CheckReportsTheQualityOfTheMeshARunWrote)
     // A surface mesh is not a volume mesh; a file that is not .msh is refused.
     expect_refused(run_scalemesh({"check", (tmp.path / "surface.msh").string()}), 2, "no tetrahedra");
     expect_refused(run_scalemesh({"check", (tmp.path / "report.json").string()}), 2, ".msh");
+    // A damaged .msh that once crashed Gmsh's reader is refused before Gmsh reads it.
+    expect_refused(run_scalemesh({"check", "fuzz/regressions/msh/element-node-tag-beyond-int-segfaults-gmsh.msh"}), 2,
+                   "is not a valid MSH file");
 }
 
 TEST(Cli, RefusesBadPhantomArguments)
