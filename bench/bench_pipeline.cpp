@@ -590,6 +590,7 @@ int main(int argc, char** argv)
     for (int i = 1; i < argc; ++i) s.command += std::string(" ") + argv[i];
 
     if (!s.from_json.empty()) {
+        const std::string merge_command = s.command;
         json result = json::parse(std::ifstream(s.from_json.front()));
         s.command = result["command"];
         s.shape = result["shape"];
@@ -608,6 +609,7 @@ int main(int argc, char** argv)
                 result["sizes"].push_back(size);
             }
         }
+        s.command += "\n" + merge_command;
         result["goals"] = goals(s, result["sizes"]);
         write_plot(s, result["sizes"]);
         if (!s.doc_path.empty()) std::ofstream(s.doc_path) << markdown(s, result);
