@@ -305,6 +305,23 @@ void check_metaimage(const std::filesystem::path& path)
         if (key == "CompressedDataSize") compressed_size = value;
         if (key != "ElementDataFile") continue;
 
+        // A pattern of slice files, "name%03d.raw first last step": MetaIO
+        // divides by the step it reads with atoi, so a missing or zero step
+        // ends the process with a division by zero (found by fuzzing).
+        if (value->find('%') != std::string::npos) {
+            std::istringstream words(*value);
+            std::string pattern, first, last, step, extra;
+            words >> pattern >> first >> last >> step;
+            const auto integer = [](const std::string& w) {
+                const size_t digits = w.find_first_not_of("0123456789", w.starts_with('-') ? 1 : 0);
+                return !w.empty() && w != "-" && w.size() < 10 && digits == std::string::npos;
+            };
+            if (words >> extra || !integer(first) || !integer(last) || !integer(step) || std::stoi(step) <= 0 ||
+                std::stoi(last) < std::stoi(first))
+                throw InputError(name + " names its data as a file pattern ('" + value->substr(0, 60) +
+                                     "') without a first and last number and a positive step",
+                                 "write ElementDataFile = name%03d.raw FIRST LAST STEP, or save the image as one .mha");
+        }
         if (!compressed) return;
         if (!compressed_size)
             throw InputError(name + " has compressed data but no CompressedDataSize in its header", hint);

@@ -695,6 +695,18 @@ TEST(ImageImporter, RefusesMalformedFiles)
     dictionary[data_at + 1] = ' ';
     expect_refused("dictionary.mha", dictionary, "preset zlib dictionary");
 
+    // Data in a pattern of slice files: MetaIO divides by the step, so a
+    // missing or zero step was a division by zero (found by fuzzing). A
+    // complete pattern is read.
+    write_bytes(s.dir / "slice1.raw", std::string(4, '\1'));
+    write_bytes(s.dir / "slice2.raw", std::string(4, '\1'));
+    const std::string slices = "ObjectType = Image\nNDims = 3\nBinaryData = True\nDimSize = 2 2 2\n"
+                               "ElementType = MET_UCHAR\nElementDataFile = slice%d.raw";
+    write_bytes(s.dir / "slices.mhd", slices + " 1 2 1\n");
+    EXPECT_NO_THROW(read_image(s.dir / "slices.mhd"));
+    for (const std::string bad : {"", " 1 2", " 1 2 0", " 2 1 1", " 1 2 x"})
+        expect_refused("pattern.mhd", slices + bad + "\n", "file pattern");
+
     // Zero sizes.
     Nifti zero = label_image();
     zero.dim[3] = 0;
