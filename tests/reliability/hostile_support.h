@@ -1,7 +1,8 @@
 #pragma once
 // Hostile but valid inputs for the whole pipeline: tiny images written as
 // MetaImage files, closed STL surfaces, the scalemesh binary run under a time
-// limit, and the facts every written mesh must have.
+// limit, the facts every written mesh must have, and each test's input and
+// outcome recorded for the table in docs/reliability.md.
 
 #include "cli/cli_support.h"
 #include "core/surface_mesh.h"
@@ -15,6 +16,7 @@
 #include <fstream>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace scalemesh {
@@ -87,11 +89,53 @@ inline CommandResult run_case_limited(const std::filesystem::path& dir, int seco
     return r;
 }
 
+// What expect_mesh_facts found: the mesh's size and the facts that failed.
+struct MeshOutcome {
+    size_t tets = 0;
+    int64_t surface_components = 0;       // of the mesh's boundary faces
+    std::vector<std::string> failed_facts; // empty when every fact holds
+};
+
+// "meshed: 1554 tets, 1 surface component, all facts true", or with the
+// failed facts in place of "all facts true".
+inline std::string describe(const MeshOutcome& m)
+{
+    std::string line = "meshed: " + std::to_string(m.tets) + " tets, " + std::to_string(m.surface_components) +
+                       " surface component" + (m.surface_components == 1 ? "" : "s") + ", ";
+    if (m.failed_facts.empty()) return line + "all facts true";
+    line += "facts failing: ";
+    for (size_t i = 0; i < m.failed_facts.size(); ++i) line += (i ? ", " : "") + m.failed_facts[i];
+    return line;
+}
+
+// A run that wrote no mesh, in one line: "refused: " and the message for exit
+// code 2, else the exit code (124: killed at the time limit) and the last line
+// of stderr.
+inline std::string describe_unmeshed(const CommandResult& r)
+{
+    std::string message = r.err;
+    while (!message.empty() && message.back() == '\n') message.pop_back();
+    const size_t last_line = message.rfind('\n');
+    if (last_line != std::string::npos) message.erase(0, last_line + 1);
+    // The tests' scratch directories (TempDir) have random names: keep the
+    // path inside them only.
+    for (size_t at; (at = message.find("scalemesh-test-")) != std::string::npos;) {
+        const size_t start = message.rfind(' ', at) == std::string::npos ? 0 : message.rfind(' ', at) + 1;
+        const size_t slash = message.find('/', at);
+        if (slash == std::string::npos) break;
+        message.erase(start, slash + 1 - start);
+    }
+    if (r.exit_code == 2) return "refused: " + message;
+    return "exit code " + std::to_string(r.exit_code) + (r.exit_code == 124 ? " (killed at the time limit)" : "") +
+           (message.empty() ? "" : ": " + message);
+}
+
 // The facts every mesh scalemesh writes must have, read back from mesh.msh:
 // every tet positive, every face in one or two tets, the one-tet faces
 // exactly the surface triangles, the tets' volume the volume the surface
 // encloses, and each surface node's tets one face-connected component.
-inline void expect_mesh_facts(const std::filesystem::path& dir)
+// Returns what it found, for the recorded outcome.
+inline MeshOutcome expect_mesh_facts(const std::filesystem::path& dir)
 {
     const TetMesh mesh = read_msh_volume(dir / "mesh.msh");
     const TetMeshFacts facts = tet_mesh_facts(mesh);
@@ -104,12 +148,28 @@ inline void expect_mesh_facts(const std::filesystem::path& dir)
     boundary.triangles = mesh.boundary_faces;
     const SurfaceFacts surface = surface_facts(boundary);
     EXPECT_TRUE(surface.closed_manifold());
-    EXPECT_NEAR(facts.volume, surface.signed_volume, 1e-9 * std::abs(surface.signed_volume));
+    const double volume_tolerance = 1e-9 * std::abs(surface.signed_volume);
+    EXPECT_NEAR(facts.volume, surface.signed_volume, volume_tolerance);
     // The surface points come first in the mesh: those on a boundary face.
     int32_t surface_points = 0;
     for (const Triangle& t : mesh.boundary_faces)
         for (int32_t v : t) surface_points = std::max(surface_points, v + 1);
-    EXPECT_TRUE(topology_check_failures(mesh, surface_points).empty());
+    const size_t topology_failures = topology_check_failures(mesh, surface_points).size();
+    EXPECT_EQ(topology_failures, 0u);
+
+    // The same facts, named for the outcome line.
+    MeshOutcome seen{mesh.tets.size(), surface.components, {}};
+    const std::pair<bool, std::string> checks[] = {
+        {!mesh.tets.empty(), "no tets"},
+        {facts.nonpositive_tets == 0, std::to_string(facts.nonpositive_tets) + " tets not positive"},
+        {facts.overshared_faces == 0, std::to_string(facts.overshared_faces) + " faces in three or more tets"},
+        {facts.boundary_matches, "one-tet faces not the surface triangles"},
+        {surface.closed_manifold(), "boundary not a closed 2-manifold"},
+        {std::abs(facts.volume - surface.signed_volume) <= volume_tolerance, "tet volume not the enclosed volume"},
+        {topology_failures == 0, std::to_string(topology_failures) + " surface nodes failing the topology check"}};
+    for (const auto& [holds, failure] : checks)
+        if (!holds) seen.failed_facts.push_back(failure);
+    return seen;
 }
 
 // A refusal: exit 2, the last line of stderr one error saying what is wrong
@@ -129,5 +189,27 @@ inline void expect_refused(const CommandResult& r, const std::filesystem::path& 
     std::sort(expected.begin(), expected.end());
     EXPECT_EQ(left, expected);
 }
+
+// A hostile-input test's input and outcome as the test properties "input"
+// and "outcome" (tests/reliability/reliability_table.py reads them from
+// --gtest_output=json). The outcome is what the runs did, not what the test
+// expects: each run's describe() or describe_unmeshed() line, joined with
+// "; ", recorded when the test ends, also when an assertion ends it early.
+class RecordedOutcome {
+public:
+    explicit RecordedOutcome(const std::string& input) { ::testing::Test::RecordProperty("input", input); }
+    ~RecordedOutcome() { ::testing::Test::RecordProperty("outcome", runs_.empty() ? "no run finished" : runs_); }
+    RecordedOutcome(const RecordedOutcome&) = delete;
+    RecordedOutcome& operator=(const RecordedOutcome&) = delete;
+
+    // One run's outcome; `label` tells the runs of one test apart.
+    void add(const std::string& outcome, const std::string& label = "")
+    {
+        runs_ += (runs_.empty() ? "" : "; ") + (label.empty() ? "" : label + ": ") + outcome;
+    }
+
+private:
+    std::string runs_;
+};
 
 } // namespace scalemesh

@@ -1,14 +1,16 @@
 // Issue 10, item 3: hostile but valid input. Each case either meshes with
 // every mesh fact holding (hostile_support.h) or is refused with exit 2 and
 // one line saying what is wrong and what to do; never a crash, a hang (the
-// run is killed after two minutes) or an invalid mesh. docs/reliability.md
-// lists the cases and their outcomes.
+// run is killed after two minutes) or an invalid mesh. Each test records its
+// input and what the runs did (RecordedOutcome); reliability_table.py writes
+// them into docs/reliability.md.
 
 #include "hostile_support.h"
 
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <sstream>
 
 namespace scalemesh {
 namespace {
@@ -26,28 +28,33 @@ CommandResult run_image(const TempDir& dir, std::array<int, 3> size, double spac
     return run_case_limited(dir.path, kTimeLimit);
 }
 
-void expect_meshed(const CommandResult& r, const TempDir& dir)
+// The run meshed with every fact holding; its outcome goes to `outcome`
+// under `label` whether it did or not.
+void expect_meshed(const CommandResult& r, const TempDir& dir, RecordedOutcome& outcome, const std::string& label = "")
 {
+    if (r.exit_code != 0) outcome.add(describe_unmeshed(r), label);
     ASSERT_EQ(r.exit_code, 0) << r.err;
-    expect_mesh_facts(dir.path);
+    outcome.add(describe(expect_mesh_facts(dir.path)), label);
 }
 
 TEST(HostileInput, OneVoxelBridgeBetweenTwoBalls)
 {
+    RecordedOutcome outcome("two balls of radius 4 voxels joined by a line of single voxels (25 x 15 x 15 image, 0.5 mm voxels)");
     const TempDir dir;
     const auto a = ball({5, 7, 7}, 4), b = ball({19, 7, 7}, 4);
     expect_meshed(run_image(dir, {25, 15, 15}, 0.5,
                             [&](int i, int j, int k) { return a(i, j, k) || b(i, j, k) || (j == 7 && k == 7 && i > 5 && i < 19); }),
-                  dir);
+                  dir, outcome);
     EXPECT_EQ(report(dir)["remeshed_surface"]["components"], 1) << "the bridge joins the balls";
 }
 
 TEST(HostileInput, OneVoxelHoleInsideABall)
 {
+    RecordedOutcome outcome("a ball of radius 5 voxels missing its centre voxel (15^3 image, 0.5 mm voxels)");
     const TempDir dir;
     const auto a = ball({7, 7, 7}, 5);
     expect_meshed(run_image(dir, {15, 15, 15}, 0.5, [&](int i, int j, int k) { return a(i, j, k) && !(i == 7 && j == 7 && k == 7); }),
-                  dir);
+                  dir, outcome);
     // The hole stays a cavity: an outer wall and the cavity's, Euler
     // characteristic 2 each.
     EXPECT_EQ(report(dir)["remeshed_surface"]["components"], 2);
@@ -56,44 +63,50 @@ TEST(HostileInput, OneVoxelHoleInsideABall)
 
 TEST(HostileInput, SingleIsolatedVoxel)
 {
+    RecordedOutcome outcome("one inside voxel in a 5^3 image of 0.5 mm voxels");
     const TempDir dir;
-    expect_meshed(run_image(dir, {5, 5, 5}, 0.5, [](int i, int j, int k) { return i == 2 && j == 2 && k == 2; }), dir);
+    expect_meshed(run_image(dir, {5, 5, 5}, 0.5, [](int i, int j, int k) { return i == 2 && j == 2 && k == 2; }), dir, outcome);
 }
 
 TEST(HostileInput, StrayVoxelBesideABall)
 {
+    RecordedOutcome outcome("a ball of radius 5 voxels and a separate single voxel (20 x 15 x 15 image, 0.5 mm voxels)");
     const TempDir dir;
     const auto a = ball({7, 7, 7}, 5);
     expect_meshed(run_image(dir, {20, 15, 15}, 0.5, [&](int i, int j, int k) { return a(i, j, k) || (i == 17 && j == 7 && k == 7); }),
-                  dir);
+                  dir, outcome);
     EXPECT_EQ(report(dir)["remeshed_surface"]["components"], 2);
 }
 
 TEST(HostileInput, LabelFillingTheWholeImage)
 {
+    RecordedOutcome outcome("every voxel of a 10^3 image of 0.5 mm voxels inside");
     const TempDir dir;
-    expect_meshed(run_image(dir, {10, 10, 10}, 0.5, [](int, int, int) { return true; }), dir);
+    expect_meshed(run_image(dir, {10, 10, 10}, 0.5, [](int, int, int) { return true; }), dir, outcome);
 }
 
 TEST(HostileInput, BallCutByEveryImageFace)
 {
+    RecordedOutcome outcome("a ball of radius 8 voxels in a 12^3 image (0.5 mm voxels), cut by all six faces");
     const TempDir dir;
-    expect_meshed(run_image(dir, {12, 12, 12}, 0.5, ball({6, 6, 6}, 8)), dir);
+    expect_meshed(run_image(dir, {12, 12, 12}, 0.5, ball({6, 6, 6}, 8)), dir, outcome);
 }
 
 TEST(HostileInput, LabelFillingTheImageWithBorderOpenings)
 {
+    RecordedOutcome outcome("every voxel of a 10^3 image inside, border openings z- (inlet) and z+ (outlet)");
     const TempDir dir;
     expect_meshed(run_image(dir, {10, 10, 10}, 0.5, [](int, int, int) { return true; },
                             "[[openings]]\nname = \"in\"\ntype = \"inlet\"\nborder = \"z-\"\n"
                             "[[openings]]\nname = \"out\"\ntype = \"outlet\"\nborder = \"z+\"\n"),
-                  dir);
+                  dir, outcome);
 }
 
 TEST(HostileInput, OneByNByNSlabImage)
 {
+    RecordedOutcome outcome("a 1 x 12 x 12 image of 0.5 mm voxels, all inside");
     const TempDir dir;
-    expect_meshed(run_image(dir, {1, 12, 12}, 0.5, [](int, int, int) { return true; }), dir);
+    expect_meshed(run_image(dir, {1, 12, 12}, 0.5, [](int, int, int) { return true; }), dir, outcome);
     // The plate is one voxel thick, yet the layers fit across it.
     const nlohmann::json q = report(dir)["volume"]["quality_after_sliver_removal"];
     EXPECT_GT(q["min_aspect_ratio"].get<double>(), 0.05);
@@ -101,23 +114,26 @@ TEST(HostileInput, OneByNByNSlabImage)
 
 TEST(HostileInput, VoxelsOfAMillionthOfAMillimetreAreRefused)
 {
+    RecordedOutcome outcome("a ball of radius 5 voxels in a 15^3 image of 1e-6 mm voxels");
     // OpenVDB cannot invert a transform this small; the importer says so.
     const TempDir dir;
     const CommandResult r = run_image(dir, {15, 15, 15}, 1e-6, ball({7, 7, 7}, 5));
+    outcome.add(describe_unmeshed(r));
     expect_refused(r, dir.path, {"image.mha"});
     EXPECT_NE(r.err.find("spacing 1e-06"), std::string::npos) << r.err;
 }
 
 TEST(HostileInput, VoxelsOfAMetre)
 {
+    RecordedOutcome outcome("a ball of radius 5 voxels in a 15^3 image of 1e3 mm voxels, of 1024 mm and of 1 mm");
     const TempDir dir;
-    expect_meshed(run_image(dir, {15, 15, 15}, 1e3, ball({7, 7, 7}, 5)), dir);
+    expect_meshed(run_image(dir, {15, 15, 15}, 1e3, ball({7, 7, 7}, 5)), dir, outcome, "1e3 mm");
     // Scale invariance: with 1024 mm voxels (a power of two, so that every
     // product scales exactly; 1e3 rounds differently and may break a tie
     // elsewhere) the very mesh of 1 mm voxels, scaled.
     const TempDir large, unit;
-    expect_meshed(run_image(large, {15, 15, 15}, 1024, ball({7, 7, 7}, 5)), large);
-    expect_meshed(run_image(unit, {15, 15, 15}, 1, ball({7, 7, 7}, 5)), unit);
+    expect_meshed(run_image(large, {15, 15, 15}, 1024, ball({7, 7, 7}, 5)), large, outcome, "1024 mm");
+    expect_meshed(run_image(unit, {15, 15, 15}, 1, ball({7, 7, 7}, 5)), unit, outcome, "1 mm");
     EXPECT_EQ(report(large)["volume"]["tets"], report(unit)["volume"]["tets"]);
     EXPECT_DOUBLE_EQ(report(large)["volume"]["volume_mm3"].get<double>(),
                      std::pow(1024.0, 3) * report(unit)["volume"]["volume_mm3"].get<double>());
@@ -125,6 +141,7 @@ TEST(HostileInput, VoxelsOfAMetre)
 
 TEST(HostileInput, HundredSeparateComponents)
 {
+    RecordedOutcome outcome("100 balls of radius 2 voxels in a 30 x 30 x 24 image of 0.5 mm voxels");
     const TempDir dir;
     std::vector<VoxelTest> balls;
     for (int a = 0; a < 5; ++a)
@@ -134,7 +151,7 @@ TEST(HostileInput, HundredSeparateComponents)
                             [&](int i, int j, int k) {
                                 return std::any_of(balls.begin(), balls.end(), [&](const VoxelTest& f) { return f(i, j, k); });
                             }),
-                  dir);
+                  dir, outcome);
     EXPECT_EQ(report(dir)["remeshed_surface"]["components"], 100);
 }
 
@@ -151,12 +168,15 @@ std::vector<std::array<Vec3, 3>> cube_with_sliver(double scale)
 
 TEST(HostileInput, SurfaceWithASliverTriangle)
 {
+    RecordedOutcome outcome("a 10 mm cube STL whose top face has a triangle with two angles of 0.01 degrees, also scaled by 1e-6 and 1e3");
     for (const double scale : {1.0, 1e-6, 1e3}) {
         SCOPED_TRACE(scale);
         const TempDir dir;
         write_stl(dir.path / "cube.stl", cube_with_sliver(scale));
         write_case(dir.path, "[input]\nfile = \"cube.stl\"\n");
-        expect_meshed(run_case_limited(dir.path, kTimeLimit), dir);
+        std::ostringstream label;
+        label << "scale " << scale;
+        expect_meshed(run_case_limited(dir.path, kTimeLimit), dir, outcome, label.str());
         // STL stores single-precision coordinates: the cube is exact only to that.
         const double volume = 1000 * std::pow(scale, 3);
         EXPECT_NEAR(report(dir)["volume"]["volume_mm3"].get<double>(), volume, 1e-6 * volume);
@@ -165,11 +185,15 @@ TEST(HostileInput, SurfaceWithASliverTriangle)
 
 TEST(HostileInput, SharedAortaSurfaceWithSliverTriangles)
 {
+    RecordedOutcome outcome("../shared/data/vmtk_aorta_capped.stl, a capped aorta surface with sliver triangles");
     const std::filesystem::path aorta = std::filesystem::absolute("../shared/data/vmtk_aorta_capped.stl");
-    if (!std::filesystem::exists(aorta)) GTEST_SKIP() << aorta << " is not there";
+    if (!std::filesystem::exists(aorta)) {
+        outcome.add("not run: " + aorta.string() + " is not there");
+        GTEST_SKIP() << aorta << " is not there";
+    }
     const TempDir dir;
     write_case(dir.path, "[input]\nfile = " + quote(aorta.string()) + "\n");
-    expect_meshed(run_case_limited(dir.path, kTimeLimit), dir);
+    expect_meshed(run_case_limited(dir.path, kTimeLimit), dir, outcome);
 }
 
 } // namespace
