@@ -48,18 +48,16 @@ void renumber_for_locality(VolumeResult& result, int32_t n)
     std::vector<Kernel::Point_3> positions;
     positions.reserve(count);
     for (const Vec3& p : mesh.points) positions.emplace_back(p.x, p.y, p.z);
-    std::vector<int32_t> order(count);
-    std::iota(order.begin(), order.end(), 0);
+    std::vector<int32_t> order(count - n); // the interior points only: surface points keep their ids
+    std::iota(order.begin(), order.end(), n);
     using Traits = CGAL::Spatial_sort_traits_adapter_3<Kernel, CGAL::Pointer_property_map<Kernel::Point_3>::type>;
     const CGAL::Hilbert_sort_3<Traits, CGAL::Hilbert_sort_median_policy> hilbert(Traits(CGAL::make_property_map(positions)));
     hilbert(order.begin(), order.end());
 
     // New ids: surface points unchanged, interior points in Hilbert order.
     std::vector<int32_t> new_id(count);
-    int32_t next = n;
-    for (int32_t p : order)
-        if (p >= n) new_id[p] = next++;
-    for (int32_t i = 0; i < n; ++i) new_id[i] = i;
+    std::iota(new_id.begin(), new_id.begin() + n, 0);
+    for (size_t r = 0; r < order.size(); ++r) new_id[order[r]] = n + static_cast<int32_t>(r);
     auto permute = [&](auto& values) {
         auto old = values;
         for (size_t i = 0; i < count; ++i) values[new_id[i]] = old[i];
