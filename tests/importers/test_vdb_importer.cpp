@@ -176,6 +176,124 @@ TEST(VdbImporter, RefusesLengthsAndOffsetsBeyondTheFile)
     expect_refused(with_value_at(good, static_cast<size_t>(grid_pos), uint32_t{64}), "unknown compression flags 64");
 }
 
+// read_vdb walks the tree of the grid it reads as OpenVDB does and needs it
+// to end exactly at the grid's end offset; a walk that misplaced one field
+// would refuse these files.
+TEST(VdbImporter, ReadsTreesOfEveryScalarTypeAndCompression)
+{
+    const TempDir s;
+    openvdb::initialize();
+    // Two whole leaves partly active with two inactive values each (of both
+    // signs for the level set), which mask compression stores with a
+    // selection mask and, where neither is the background, both values; a
+    // third leaf partly filled; a tile in a lower node and one at the root.
+    const auto fill = [](auto& tree, auto inside, auto outside, auto active) {
+        for (int x = -8; x < 10; ++x)
+            for (int y = 0; y < 8; ++y)
+                for (int z = 0; z < 8; ++z) {
+                    if ((x + y + z) % 3 == 0) tree.setValueOn({x, y, z}, active);
+                    else tree.setValueOff({x, y, z}, (x < 0) != (y == 4) ? inside : outside);
+                }
+        tree.addTile(1, {256, 0, 0}, active, true);
+        tree.addTile(3, {8192, 0, 0}, active, true);
+    };
+    auto level_set = openvdb::FloatGrid::create(3.0f);
+    level_set->setGridClass(openvdb::GRID_LEVEL_SET);
+    fill(level_set->tree(), -3.0f, 3.0f, 0.5f);
+    auto doubles = openvdb::DoubleGrid::create(0.0);
+    fill(doubles->tree(), -1.0, 0.0, 2.0);
+    auto int32 = openvdb::Int32Grid::create(0);
+    fill(int32->tree(), 5, 7, 4); // two inactive values, neither the background
+    auto int64 = openvdb::Int64Grid::create(0);
+    fill(int64->tree(), 5, 0, int64_t{1} << 40);
+    auto bools = openvdb::BoolGrid::create(false);
+    fill(bools->tree(), true, false, true);
+    const std::vector<openvdb::GridBase::Ptr> grids{level_set, doubles, int32, int64, bools};
+
+    using namespace openvdb::io;
+    for (const uint32_t compression :
+         std::initializer_list<uint32_t>{COMPRESS_NONE, COMPRESS_ZIP, COMPRESS_ACTIVE_MASK,
+                                         COMPRESS_ZIP | COMPRESS_ACTIVE_MASK, COMPRESS_BLOSC,
+                                         COMPRESS_BLOSC | COMPRESS_ACTIVE_MASK}) {
+        for (const bool half : {false, true}) {
+            for (const auto& grid : grids) {
+                grid->setName("g");
+                grid->setSaveFloatAsHalf(half);
+                const auto file_name = s.path / ("c" + std::to_string(compression) + grid->type() + ".vdb");
+                File file(file_name.string());
+                file.setCompression(compression);
+                file.write({grid});
+                file.close();
+                const std::string what = grid->type() + ", compression " + compressionToString(compression) +
+                                         (half ? ", half" : "");
+                openvdb::FloatGrid::Ptr back;
+                ASSERT_NO_THROW(back = read_vdb(file_name)) << what;
+                EXPECT_EQ(back->tree().activeVoxelCount(), grid->baseTree().activeVoxelCount()) << what;
+                EXPECT_EQ(back->tree().leafCount(), grid->baseTree().leafCount()) << what;
+            }
+        }
+    }
+}
+
+// A buffer's stated size, a node count or a blosc header that does not fit
+// the file is refused before OpenVDB allocates it (found by fuzzing: a
+// leaf's blosc size made OpenVDB allocate whatever it said).
+TEST(VdbImporter, RefusesTreeCountsAndBufferSizesBeyondTheFile)
+{
+    const TempDir s;
+    auto grid = openvdb::FloatGrid::create(0.0f);
+    grid->setName("label");
+    grid->setTransform(openvdb::math::Transform::createLinearTransform(0.5));
+    for (int x = 0; x < 8; ++x)
+        for (int y = 0; y < 8; ++y)
+            for (int z = 0; z < 8; ++z) grid->tree().setValueOn({x, y, z}, float(x + y * z));
+    write_vdb(*grid, s.path / "good.vdb"); // blosc with mask compression, as OpenVDB writes by default
+    std::ifstream in(s.path / "good.vdb", std::ios::binary);
+    const std::string good((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    ASSERT_NO_THROW(read_vdb(s.path / "good.vdb"));
+
+    const auto expect_refused = [&](const std::string& bytes, const std::string& mentions) {
+        std::ofstream(s.path / "bad.vdb", std::ios::binary) << bytes;
+        try {
+            read_vdb(s.path / "bad.vdb");
+            ADD_FAILURE() << "read: " << mentions;
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find(mentions), std::string::npos) << e.what();
+        }
+    };
+
+    // The tree follows the transform: its map type, then 5 vectors of 3
+    // doubles; then a buffer count, the background, the tile and child counts.
+    const std::string map = "UniformScaleMap";
+    const size_t map_at = good.find(map);
+    ASSERT_NE(map_at, std::string::npos);
+    const size_t tree_at = map_at + map.size() + 5 * 24;
+    ASSERT_EQ(u32_at(good, tree_at + 8), 0u) << "no tiles";
+    ASSERT_EQ(u32_at(good, tree_at + 12), 1u) << "one child";
+    expect_refused(with_value_at(good, tree_at + 8, uint32_t{1} << 30), "counts 1073741824 tiles");
+    expect_refused(with_value_at(good, tree_at + 12, uint32_t{70000}), "counts 70000 children");
+
+    // The one leaf's values come last: a signed size, then that many bytes.
+    size_t size_at = 0;
+    for (size_t n = 16; n + 8 < good.size() && !size_at; ++n) {
+        int64_t stated = 0;
+        std::memcpy(&stated, good.data() + good.size() - n - 8, 8);
+        if (stated == static_cast<int64_t>(n)) size_at = good.size() - n - 8;
+    }
+    ASSERT_NE(size_at, 0u) << "the leaf's blosc buffer";
+    expect_refused(with_value_at(good, size_at, int64_t{1} << 40), "compressed in 1099511627776 bytes");
+    expect_refused(with_value_at(good, size_at, int64_t{-4096}), "stored raw in 4096 bytes instead of 2048");
+    // Its blosc header: the uncompressed size at byte 4, the compressed at 12.
+    expect_refused(with_value_at(good, size_at + 8 + 4, uint32_t{1} << 30), "1073741824 uncompressed");
+    expect_refused(with_value_at(good, size_at + 8 + 12, uint32_t{1} << 20), "says 1048576 bytes");
+    // Bytes after the tree that the grid's end offset includes: the third
+    // offset after the descriptor's name, type and instance parent.
+    size_t offsets_at = 65;
+    for (int string = 0; string < 3; ++string) offsets_at += 4 + u32_at(good, offsets_at);
+    expect_refused(with_value_at(good + "more", offsets_at + 16, static_cast<int64_t>(good.size() + 4)),
+                   "ends 4 bytes before the grid's end offset");
+}
+
 TEST(VdbImporter, WriteLeavesNoFileWhenTheDirectoryIsMissing)
 {
     const TempDir s;
