@@ -354,6 +354,27 @@ private:
                                          "type of element " + std::to_string(element_count_so_far + 1)));
     }
 
+    // MSH4's $Nodes and $Elements begin alike: the numbers of blocks and of
+    // items, the smallest and the largest tag. Returns the two numbers.
+    std::pair<int64_t, int64_t> v4_section_header(const std::string& item, int64_t bytes_each)
+    {
+        const int64_t blocks = size_item(0, kMaxTag, "number of " + item + " blocks");
+        const int64_t total = size_item(0, kMaxTag, "number of " + item + "s");
+        size_item(0, std::numeric_limits<int64_t>::max(), "smallest " + item + " tag");
+        size_item(0, std::numeric_limits<int64_t>::max(), "largest " + item + " tag");
+        room(total, bytes_each, item + "s");
+        room(blocks, bytes(20, 4), item + " blocks");
+        return {blocks, total};
+    }
+
+    // A block's entity: its dimension (returned) and tag.
+    int64_t v4_block_entity(const std::string& block)
+    {
+        const int64_t dim = int_item(0, 3, "dimension of " + block);
+        int_item(1, kMaxTag, "entity tag of " + block);
+        return dim;
+    }
+
     void nodes()
     {
         seen_nodes_ = true;
@@ -367,17 +388,11 @@ private:
             end_of_section();
             return;
         }
-        const int64_t blocks = size_item(0, kMaxTag, "number of node blocks");
-        const int64_t total = size_item(0, kMaxTag, "number of nodes");
-        size_item(0, std::numeric_limits<int64_t>::max(), "smallest node tag");
-        size_item(0, std::numeric_limits<int64_t>::max(), "largest node tag");
-        room(total, bytes(32, 4), "nodes");
-        room(blocks, bytes(20, 4), "node blocks");
+        const auto [blocks, total] = v4_section_header("node", bytes(32, 4));
         int64_t read = 0;
         for (int64_t b = 0; b < blocks; ++b) {
             const std::string block = "node block " + std::to_string(b + 1);
-            const int64_t dim = int_item(0, 3, "dimension of " + block);
-            int_item(1, kMaxTag, "entity tag of " + block);
+            const int64_t dim = v4_block_entity(block);
             const int64_t parametric = int_item(0, 1, "parametric flag of " + block);
             const int64_t count = size_item(0, total - read, "number of nodes in " + block + " (of " +
                                                                  std::to_string(total) + " in all)");
@@ -396,17 +411,11 @@ private:
     {
         seen_elements_ = true;
         if (!v4_) return elements_2();
-        const int64_t blocks = size_item(0, kMaxTag, "number of element blocks");
-        const int64_t total = size_item(0, kMaxTag, "number of elements");
-        size_item(0, std::numeric_limits<int64_t>::max(), "smallest element tag");
-        size_item(0, std::numeric_limits<int64_t>::max(), "largest element tag");
-        room(total, bytes(16, 2), "elements");
-        room(blocks, bytes(20, 4), "element blocks");
+        const auto [blocks, total] = v4_section_header("element", bytes(16, 2));
         int64_t read = 0;
         for (int64_t b = 0; b < blocks; ++b) {
             const std::string block = "element block " + std::to_string(b + 1);
-            const int64_t dim = int_item(0, 3, "dimension of " + block);
-            int_item(1, kMaxTag, "entity tag of " + block);
+            const int64_t dim = v4_block_entity(block);
             const int type = element_type(read);
             const int64_t count = size_item(0, total - read, "number of elements in " + block + " (of " +
                                                                  std::to_string(total) + " in all)");
