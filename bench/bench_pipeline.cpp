@@ -26,6 +26,7 @@
 #include "pipeline/run_case.h"
 #include "phantom/phantom.h"
 #include "references.h"
+#include "snappy_reference.h"
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -66,6 +67,8 @@ struct Settings {
     double max_memory_gib = 12;   // a size whose predicted peak is above this is skipped
     bool mesh_3 = true;
     int mesh_3_max_box = 256;     // Mesh_3 only up to this size: it takes minutes per million tets
+    bool snappy = true;
+    int snappy_max_box = 256;     // snappyHexMesh (one run, serial) only up to this size
     std::string json_path = "bench-pipeline.json";
     std::string plot_path = "bench-pipeline.png";
     std::string doc_path;         // empty: no markdown
@@ -164,6 +167,36 @@ std::string case_text(const Settings& s, double h, int threads)
     return toml.str();
 }
 
+// snappyHexMesh with addLayers on the smoothed surface our sizing and
+// remeshing start from, once: background cells of the size that puts as many
+// cells in the enclosed volume as we made tets, floor(M/2) layers as our
+// mesh has per wall, locationInMesh at the middle of the longest inward ray
+// of our sizing (inside by construction).
+json measure_snappy(const CaseResult& ours, int layers, const fs::path& dir)
+{
+    const SurfaceMesh& surface = ours.run.surface;
+    const FeatureSize& sizing = *ours.run.sizing;
+    size_t deepest = 0;
+    for (size_t i = 0; i < surface.points.size(); ++i)
+        if (sizing.inward_ok[i] && std::isfinite(sizing.D[i]) && sizing.D[i] > sizing.D[deepest]) deepest = i;
+    SnappyParams params;
+    params.layers = layers;
+    params.inside = surface.points[deepest] - 0.5 * sizing.D[deepest] * sizing.normals[deepest];
+    const double tets = static_cast<double>(ours.run.volume->mesh.tets.size());
+    params.cell_size = std::cbrt(std::abs(signed_volume(surface)) / tets);
+    std::printf("  snappyHexMesh, cells of %.4f mm, %d layers...\n", params.cell_size, layers);
+    const SnappyRun r = snappy_hex_mesh(surface, params, dir);
+    if (!r.error.empty()) return {{"error", r.error}};
+    fs::remove_all(dir); // the case (meshes of up to a million cells) is not kept
+    return {{"seconds", r.seconds},
+            {"snappy_seconds", r.snappy_seconds},
+            {"cells", r.cells},
+            {"cell_size_mm", params.cell_size},
+            {"layers_asked", layers},
+            {"mean_layers", r.mean_layers},
+            {"thickness_percent", r.thickness_percent}};
+}
+
 // Our pipeline N times end to end, then (with `cgal`) the CGAL references on
 // the last run's surfaces and points; volumeToMesh on every thread count.
 json measure_pipeline(const Settings& s, int box, int threads, bool cgal, const fs::path& work_dir)
@@ -243,6 +276,15 @@ json measure_pipeline(const Settings& s, int box, int threads, bool cgal, const 
         return r.seconds;
     });
     out["ref_delaunay"]["items"] = cells;
+
+    // Layers our mesh realised: per surface node, the consecutive
+    // layermaking points inserted, over the floor(M/2) asked.
+    const int layers = static_cast<int>(std::floor(config.M / 2));
+    double realised = 0;
+    for (const int32_t r : last.run.volume->realised_layers) realised += r;
+    out["layers_asked"] = layers;
+    out["mean_realised_layers"] = realised / std::max<size_t>(1, last.run.volume->realised_layers.size());
+    if (s.snappy && box <= s.snappy_max_box) out["ref_snappy"] = measure_snappy(last, layers, dir / "snappy");
     return out;
 }
 
@@ -459,6 +501,33 @@ std::string markdown(const Settings& s, const json& result)
         }
     }
 
+    md << "\n## Against snappyHexMesh\n\n"
+       << "OpenFOAM's `blockMesh` and `snappyHexMesh` (v1912, serial) with `addLayers` on the smoothed surface "
+       << "written as STL, run once per size in the same process as our 1-thread runs (`bench/snappy_reference.cpp`): "
+       << "background hex cells of the size that puts as many cells in the enclosed volume as we made tets, no "
+       << "refinement, floor(M/2) layers asked on the surface (relative sizes, final layer 0.3 of the cell), "
+       << "`locationInMesh` at the middle of our longest inward ray. Its cell count, the average layers on the "
+       << "surface patch and the layers' thickness as a percentage of the asked come from its log. Ours: the "
+       << "meshing stages (isosurface to volume) on 1 thread, and per surface node the consecutive layermaking "
+       << "points our mesh realised, averaged.\n\n"
+       << "| box | our meshing s | tets | our layers (mean / asked) | snappyHexMesh s | cells | ratio | "
+          "snappyHexMesh layers (mean / asked) | its layer thickness % |\n"
+       << "|---|---|---|---|---|---|---|---|---|\n";
+    for (const json& size : sizes) {
+        const json* run = find_run(sizes, size["box"], s.threads.front());
+        if (!run || !run->contains("ref_snappy")) continue;
+        const json& snappy = (*run)["ref_snappy"];
+        md << "| " << box_label(s, size) << " | " << fixed(meshing_seconds(*run), 2) << " | " << (*run)["tets"] << " | "
+           << fixed((*run)["mean_realised_layers"].get<double>(), 2) << " / " << (*run)["layers_asked"] << " | ";
+        if (snappy.contains("error")) {
+            md << "failed: " << snappy["error"].get<std::string>() << " |||||\n";
+            continue;
+        }
+        md << fixed(snappy["seconds"].get<double>(), 2) << " | " << snappy["cells"] << " | "
+           << ratio(meshing_seconds(*run), snappy["seconds"]) << " | " << fixed(snappy["mean_layers"].get<double>(), 2)
+           << " / " << snappy["layers_asked"] << " | " << fixed(snappy["thickness_percent"].get<double>(), 1) << " |\n";
+    }
+
     md << "\n## Thread speed-up\n\n"
        << "Median time on " << s.threads.front() << " thread over median time on " << s.threads.back()
        << " threads, per stage (`tbb::global_control` and `[run] threads` limit every stage).\n\n| box |";
@@ -576,6 +645,8 @@ int main(int argc, char** argv)
     app.add_option("--max-memory-gib", s.max_memory_gib, "skip a size whose predicted peak is above this")->capture_default_str();
     app.add_flag("!--no-mesh-3", s.mesh_3, "skip the CGAL Mesh_3 reference");
     app.add_option("--mesh-3-max-box", s.mesh_3_max_box, "largest box to run Mesh_3 on")->capture_default_str();
+    app.add_flag("!--no-snappy", s.snappy, "skip the snappyHexMesh reference");
+    app.add_option("--snappy-max-box", s.snappy_max_box, "largest box to run snappyHexMesh on")->capture_default_str();
     app.add_option("--json", s.json_path, "result file")->capture_default_str();
     app.add_option("--plot", s.plot_path, "PNG of time against output tets")->capture_default_str();
     app.add_option("--doc", s.doc_path, "markdown tables to write (docs/performance.md)");
