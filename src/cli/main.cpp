@@ -31,6 +31,7 @@ using namespace scalemesh;
 
 void on_signal(int signal)
 {
+    if (defer_signal_during_commit(signal)) return;
     remove_pending_outputs();
     ::_exit(128 + signal);
 }

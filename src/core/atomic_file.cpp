@@ -36,6 +36,15 @@ void unregister_pending(int slot)
     if (slot >= 0) g_in_use[slot].store(false);
 }
 
+// commit_all's state, for a handler running on any thread: masking the
+// signals holds them back only on the thread that commits, and the kernel
+// hands a process-directed signal to any thread that does not mask it (a TBB
+// worker), whose handler would remove the outputs not yet renamed.
+enum CommitState : int { kIdle, kCommitting, kSignalled };
+std::atomic<int> g_commit_state{kIdle};
+std::atomic<int> g_deferred_signal{0};
+static_assert(std::atomic<int>::is_always_lock_free, "read from signal handlers");
+
 } // namespace
 
 AtomicOutput::AtomicOutput(std::filesystem::path path) : path_(std::move(path))
@@ -72,13 +81,30 @@ void commit_all(StagedOutputs& outputs)
     sigaddset(&held, SIGTERM);
     sigaddset(&held, SIGHUP);
     pthread_sigmask(SIG_BLOCK, &held, &previous);
+    g_deferred_signal.store(0);
+    g_commit_state.store(kCommitting);
+    // Ends the commit: a signal another thread's handler deferred is raised
+    // again, now on this thread and with no commit running.
+    const auto finish = [&] {
+        const int state = g_commit_state.exchange(kIdle);
+        pthread_sigmask(SIG_SETMASK, &previous, nullptr);
+        if (state == kSignalled) ::raise(g_deferred_signal.load());
+    };
     try {
         for (auto& out : outputs) out->commit();
     } catch (...) {
-        pthread_sigmask(SIG_SETMASK, &previous, nullptr);
+        finish();
         throw;
     }
-    pthread_sigmask(SIG_SETMASK, &previous, nullptr);
+    finish();
+}
+
+bool defer_signal_during_commit(int signal) noexcept
+{
+    if (g_commit_state.load() == kIdle) return false;
+    g_deferred_signal.store(signal);
+    int expected = kCommitting;
+    return g_commit_state.compare_exchange_strong(expected, kSignalled) || expected == kSignalled;
 }
 
 void remove_pending_outputs() noexcept

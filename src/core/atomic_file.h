@@ -38,8 +38,15 @@ using StagedOutputs = std::vector<std::unique_ptr<AtomicOutput>>;
 // Commits every output with SIGINT, SIGTERM and SIGHUP held back, so that an
 // interruption leaves either all of them in place or none (the renames take
 // microseconds; a held signal is delivered when they are done). Throws
-// IoError as AtomicOutput::commit.
+// IoError as AtomicOutput::commit. A signal handler must call
+// defer_signal_during_commit first: the mask holds signals back only on the
+// committing thread.
 void commit_all(StagedOutputs& outputs);
+
+// For signal handlers, on any thread: while commit_all runs, records the
+// signal for commit_all to raise again when it is done and returns true (the
+// handler then returns at once); otherwise returns false.
+bool defer_signal_during_commit(int signal) noexcept;
 
 // Removes every temporary file still pending; safe to call from a signal
 // handler (uses only unlink on pre-built names).
