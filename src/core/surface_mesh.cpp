@@ -3,6 +3,9 @@
 #include "core/adjacency.h"
 #include "core/errors.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
+
 #include <algorithm>
 #include <limits>
 #include <numeric>
@@ -143,52 +146,75 @@ SurfaceFacts surface_facts(const SurfaceMesh& mesh)
     // {v, w} (counted at its lower end) is manifold and consistently oriented
     // when exactly one fan triangle runs v -> w and one runs w -> v; a vertex
     // is manifold when its link edges form a single cycle.
+    // The vertices are judged in parallel; their counts are integers, so the
+    // sums do not depend on the split.
     const VertexTable fans = vertex_triangles(mesh);
-    std::vector<FanEdge> edges;
-    std::vector<std::pair<int32_t, int32_t>> link;
-    for (int32_t v = 0; v < static_cast<int32_t>(mesh.points.size()); ++v) {
-        if (fans.size(v) == 0) continue;
-        fan_edges(mesh, fans, v, edges);
-        for (size_t i = 0; i < edges.size();) {
-            size_t j = i;
-            int outgoing = 0;
-            while (j < edges.size() && edges[j].w == edges[i].w) outgoing += edges[j++].outgoing;
-            if (edges[i].w > v) {
-                const size_t n = j - i;
-                ++facts.edges;
-                if (n == 1) ++facts.boundary_edges;
-                else if (n > 2) ++facts.nonmanifold_edges;
-                else if (outgoing != 1) ++facts.misoriented_edges;
-            }
-            i = j;
-        }
-
-        link.clear();
-        for (const int32_t* f = fans.begin(v); f != fans.end(v); ++f) {
-            const Triangle& t = mesh.triangles[*f];
-            const int k = t[0] == v ? 0 : (t[1] == v ? 1 : 2);
-            link.emplace_back(t[(k + 1) % 3], t[(k + 2) % 3]);
-        }
-        std::sort(link.begin(), link.end());
-        bool ok = std::adjacent_find(link.begin(), link.end(), [](const auto& a, const auto& b) {
-                      return a.first == b.first;
-                  }) == link.end();
-        if (ok) {
-            int32_t cur = link.front().first;
-            size_t steps = 0;
-            do {
-                auto it = std::lower_bound(link.begin(), link.end(), std::make_pair(cur, INT32_MIN));
-                if (it == link.end() || it->first != cur) {
-                    ok = false;
-                    break;
+    struct Counts {
+        int64_t edges = 0, boundary = 0, nonmanifold_edges = 0, misoriented = 0, nonmanifold_vertices = 0;
+    };
+    const auto judge = [&](const tbb::blocked_range<int32_t>& range, Counts counts) {
+        std::vector<FanEdge> edges;
+        std::vector<std::pair<int32_t, int32_t>> link;
+        for (int32_t v = range.begin(); v != range.end(); ++v) {
+            if (fans.size(v) == 0) continue;
+            fan_edges(mesh, fans, v, edges);
+            for (size_t i = 0; i < edges.size();) {
+                size_t j = i;
+                int outgoing = 0;
+                while (j < edges.size() && edges[j].w == edges[i].w) outgoing += edges[j++].outgoing;
+                if (edges[i].w > v) {
+                    const size_t n = j - i;
+                    ++counts.edges;
+                    if (n == 1) ++counts.boundary;
+                    else if (n > 2) ++counts.nonmanifold_edges;
+                    else if (outgoing != 1) ++counts.misoriented;
                 }
-                cur = it->second;
-                ++steps;
-            } while (cur != link.front().first && steps <= link.size());
-            ok = ok && steps == link.size();
+                i = j;
+            }
+
+            link.clear();
+            for (const int32_t* f = fans.begin(v); f != fans.end(v); ++f) {
+                const Triangle& t = mesh.triangles[*f];
+                const int k = t[0] == v ? 0 : (t[1] == v ? 1 : 2);
+                link.emplace_back(t[(k + 1) % 3], t[(k + 2) % 3]);
+            }
+            std::sort(link.begin(), link.end());
+            bool ok = std::adjacent_find(link.begin(), link.end(), [](const auto& a, const auto& b) {
+                          return a.first == b.first;
+                      }) == link.end();
+            if (ok) {
+                int32_t cur = link.front().first;
+                size_t steps = 0;
+                do {
+                    auto it = std::lower_bound(link.begin(), link.end(), std::make_pair(cur, INT32_MIN));
+                    if (it == link.end() || it->first != cur) {
+                        ok = false;
+                        break;
+                    }
+                    cur = it->second;
+                    ++steps;
+                } while (cur != link.front().first && steps <= link.size());
+                ok = ok && steps == link.size();
+            }
+            if (!ok) ++counts.nonmanifold_vertices;
         }
-        if (!ok) ++facts.nonmanifold_vertices;
-    }
+        return counts;
+    };
+    const Counts counts = tbb::parallel_reduce(
+        tbb::blocked_range<int32_t>(0, static_cast<int32_t>(mesh.points.size()), 4096), Counts{}, judge,
+        [](Counts a, const Counts& b) {
+            a.edges += b.edges;
+            a.boundary += b.boundary;
+            a.nonmanifold_edges += b.nonmanifold_edges;
+            a.misoriented += b.misoriented;
+            a.nonmanifold_vertices += b.nonmanifold_vertices;
+            return a;
+        });
+    facts.edges = counts.edges;
+    facts.boundary_edges = counts.boundary;
+    facts.nonmanifold_edges = counts.nonmanifold_edges;
+    facts.misoriented_edges = counts.misoriented;
+    facts.nonmanifold_vertices = counts.nonmanifold_vertices;
 
     int32_t components = 0;
     triangle_components(mesh, &components);
