@@ -3,6 +3,9 @@
 #include "core/adjacency.h"
 #include "core/errors.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <cmath>
 #include <string>
 
@@ -25,20 +28,36 @@ double angle_between(const Vec3& u, const Vec3& v)
 
 } // namespace
 
+// Each vertex gathers over its fan, in parallel. vertex_triangles lists a
+// fan in increasing triangle order, so a vertex adds its terms in the order a
+// loop over the triangles would, and the sums are the same to the last bit
+// whatever the thread count. A triangle with a repeated vertex is listed once
+// per corner, so a repeat is skipped and its corners are taken together.
 std::vector<Vec3> synthetic_normals(const SurfaceMesh& mesh)
 {
-    std::vector<Vec3> sum(mesh.points.size());
-    for (const Triangle& t : mesh.triangles) {
-        const Vec3 n = triangle_normal(mesh, t);
-        if (norm2(n) == 0) continue;
-        for (int k = 0; k < 3; ++k) {
-            const Vec3& p = mesh.points[t[k]];
-            const double theta = angle_between(mesh.points[t[(k + 1) % 3]] - p, mesh.points[t[(k + 2) % 3]] - p);
-            sum[t[k]] += theta * n;
-        }
-    }
-    for (Vec3& n : sum) n = normalized(n);
-    return sum;
+    const VertexTable fans = vertex_triangles(mesh);
+    std::vector<Vec3> normals(mesh.points.size());
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, static_cast<int32_t>(mesh.points.size()), 2048),
+                      [&](const tbb::blocked_range<int32_t>& range) {
+                          for (int32_t v = range.begin(); v != range.end(); ++v) {
+                              Vec3 sum;
+                              for (const int32_t* f = fans.begin(v); f != fans.end(v); ++f) {
+                                  if (f != fans.begin(v) && *f == f[-1]) continue;
+                                  const Triangle& t = mesh.triangles[*f];
+                                  const Vec3 n = triangle_normal(mesh, t);
+                                  if (norm2(n) == 0) continue;
+                                  for (int k = 0; k < 3; ++k) {
+                                      if (t[k] != v) continue;
+                                      const Vec3& p = mesh.points[v];
+                                      const double theta = angle_between(mesh.points[t[(k + 1) % 3]] - p,
+                                                                         mesh.points[t[(k + 2) % 3]] - p);
+                                      sum += theta * n;
+                                  }
+                              }
+                              normals[v] = normalized(sum);
+                          }
+                      });
+    return normals;
 }
 
 std::vector<char> inward_check(const SurfaceMesh& mesh, const std::vector<Vec3>& normals)
@@ -47,14 +66,19 @@ std::vector<char> inward_check(const SurfaceMesh& mesh, const std::vector<Vec3>&
         throw InputError("inward check got " + std::to_string(normals.size()) + " normals for " +
                              std::to_string(mesh.points.size()) + " points",
                          "pass the result of synthetic_normals for the same mesh");
+    const VertexTable fans = vertex_triangles(mesh);
     std::vector<char> ok(mesh.points.size(), 0);
-    for (size_t i = 0; i < normals.size(); ++i) ok[i] = norm2(normals[i]) > 0;
-    for (const Triangle& t : mesh.triangles) {
-        const Vec3 n = triangle_normal(mesh, t);
-        if (norm2(n) == 0) continue;
-        for (int32_t v : t)
-            if (!(dot(normals[v], n) > 0)) ok[v] = 0;
-    }
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, static_cast<int32_t>(mesh.points.size()), 2048),
+                      [&](const tbb::blocked_range<int32_t>& range) {
+                          for (int32_t v = range.begin(); v != range.end(); ++v) {
+                              bool inward = norm2(normals[v]) > 0;
+                              for (const int32_t* f = fans.begin(v); inward && f != fans.end(v); ++f) {
+                                  const Vec3 n = triangle_normal(mesh, mesh.triangles[*f]);
+                                  if (norm2(n) != 0 && !(dot(normals[v], n) > 0)) inward = false;
+                              }
+                              ok[v] = inward;
+                          }
+                      });
     return ok;
 }
 
