@@ -206,18 +206,26 @@ void check_nifti(const std::filesystem::path& path)
                          "give a label map, an intensity image or a level set with one number per voxel");
     for (int d = 1; d <= std::min(rank, 3); ++d) {
         const float spacing = load(76 + 4 * static_cast<size_t>(d), float{});
-        if (!std::isfinite(spacing) || spacing == 0)
+        if (!std::isfinite(spacing) || spacing == 0 || std::abs(spacing) > 1e9f)
             throw InputError(name + " has voxel spacing pixdim[" + std::to_string(d) + "] = " + number(spacing),
                              "fix the spacing in the header");
     }
     // ITK takes the orientation from the qform or the sform, whichever is set,
     // through an SVD that aborts the process on a NaN or infinite entry (vnl's
-    // assert_finite; found by fuzzing).
+    // assert_finite) and never returns on an sform offset of -1.7e38 (found
+    // by fuzzing). No scanner places an image a million kilometres away:
+    // entries are held to 1e9 (mm, or the rotation times the spacing).
     const auto require_finite = [&](size_t offset, int count, const char* what) {
-        for (int i = 0; i < count; ++i)
-            if (!std::isfinite(load(offset + 4 * static_cast<size_t>(i), float{})))
+        for (int i = 0; i < count; ++i) {
+            const float value = load(offset + 4 * static_cast<size_t>(i), float{});
+            if (!std::isfinite(value))
                 throw InputError(name + " has a NaN or infinite entry in its " + what,
                                  "fix the orientation in the header");
+            if (std::abs(value) > 1e9f)
+                throw InputError(name + " has an entry of " + number(value) + " in its " + what +
+                                     ", beyond 1e9 in magnitude",
+                                 "fix the orientation in the header");
+        }
     };
     if (load(252, int16_t{}) > 0) require_finite(256, 6, "qform (quatern_b, c, d, qoffset)");
     if (load(254, int16_t{}) > 0) require_finite(280, 12, "sform (srow_x, srow_y, srow_z)");

@@ -754,7 +754,7 @@ TEST(ImageImporter, RefusesMalformedFiles)
     }
     // Fewer voxels than 2^31 but more than a few bytes can hold, even
     // compressed: refused before the 16 GB buffer is allocated.
-    for (const std::string& encoding : {"raw", "gzip"}) {
+    for (const std::string encoding : {"raw", "gzip"}) {
         std::string big = nrrd("2048 2048 511", "", "double", std::string(40, '\1'));
         big.replace(big.find("encoding: raw"), 13, "encoding: " + encoding);
         write_bytes(s.dir / "big.nrrd", big);
@@ -780,6 +780,19 @@ TEST(ImageImporter, RefusesMalformedFiles)
     nan_sform.srow[2][1] = std::nanf("");
     write_bytes(s.dir / "nan_sform.nii", nan_sform.bytes());
     EXPECT_THROW(read_image(s.dir / "nan_sform.nii"), InputError);
+
+    // An sform offset of -1.7e38, on which ITK's SVD never returns (found by
+    // fuzzing).
+    Nifti far_sform = label_image();
+    set_sform(far_sform, {{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}}, {1, 1, 1}, {0, 0, 0});
+    far_sform.srow[0][3] = -1.7e38f;
+    write_bytes(s.dir / "far_sform.nii", far_sform.bytes());
+    try {
+        read_image(s.dir / "far_sform.nii");
+        ADD_FAILURE() << "an sform offset of -1.7e38 must be refused";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("beyond 1e9 in magnitude"), std::string::npos) << e.what();
+    }
 
     // A sheared sform with no qform has no orthonormal direction.
     Nifti shear = label_image();
