@@ -131,6 +131,19 @@ std::string with_value_at(std::string bytes, size_t at, T value)
     return bytes;
 }
 
+// Writes `bytes` to `file` and expects read_vdb to refuse it with a message
+// that mentions `mentions`.
+void expect_refused_as(const std::filesystem::path& file, const std::string& bytes, const std::string& mentions)
+{
+    std::ofstream(file, std::ios::binary) << bytes;
+    try {
+        read_vdb(file);
+        ADD_FAILURE() << "read: " << mentions;
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find(mentions), std::string::npos) << e.what();
+    }
+}
+
 // OpenVDB 10 trusts the lengths and offsets in a file: a grid name of length
 // 2^31 made it allocate and clear 2 GB (found by fuzzing). read_vdb walks the
 // header, the descriptors and each grid's metadata first.
@@ -157,13 +170,7 @@ TEST(VdbImporter, RefusesLengthsAndOffsetsBeyondTheFile)
     std::memcpy(&grid_pos, good.data() + offsets_at, 8);
 
     const auto expect_refused = [&](const std::string& bytes, const std::string& mentions) {
-        std::ofstream(s.path / "bad.vdb", std::ios::binary) << bytes;
-        try {
-            read_vdb(s.path / "bad.vdb");
-            ADD_FAILURE() << "read: " << mentions;
-        } catch (const InputError& e) {
-            EXPECT_NE(std::string(e.what()).find(mentions), std::string::npos) << e.what();
-        }
+        expect_refused_as(s.path / "bad.vdb", bytes, mentions);
     };
     expect_refused(with_value_at(good, name_at, uint32_t{1} << 31), "name of grid 1 is 2147483648 characters long");
     expect_refused(with_value_at(good, 61, int32_t{1000000}), "a grid count of 1000000");
@@ -253,13 +260,7 @@ TEST(VdbImporter, RefusesTreeCountsAndBufferSizesBeyondTheFile)
     ASSERT_NO_THROW(read_vdb(s.path / "good.vdb"));
 
     const auto expect_refused = [&](const std::string& bytes, const std::string& mentions) {
-        std::ofstream(s.path / "bad.vdb", std::ios::binary) << bytes;
-        try {
-            read_vdb(s.path / "bad.vdb");
-            ADD_FAILURE() << "read: " << mentions;
-        } catch (const InputError& e) {
-            EXPECT_NE(std::string(e.what()).find(mentions), std::string::npos) << e.what();
-        }
+        expect_refused_as(s.path / "bad.vdb", bytes, mentions);
     };
 
     // The tree follows the transform: its map type, then 5 vectors of 3
