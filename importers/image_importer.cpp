@@ -260,8 +260,8 @@ void check_nifti(const std::filesystem::path& path)
 }
 
 // The key of a MetaImage header line as MetaIO's MET_Read takes it: from the
-// first non-blank character to the first '=' or ':' (or the line's end),
-// trailing blanks removed; and the value after the separator, trimmed.
+// first non-blank character to the first '=', ':' or '\r' (or the line's end),
+// trailing blanks removed; and the value after the first '=' or ':', trimmed.
 std::pair<std::string, std::optional<std::string>> metaimage_field(const std::string& line)
 {
     const auto trim = [](const std::string& text) {
@@ -269,14 +269,22 @@ std::pair<std::string, std::optional<std::string>> metaimage_field(const std::st
         return first == std::string::npos ? std::string()
                                           : text.substr(first, text.find_last_not_of(" \t\r") + 1 - first);
     };
+    const std::string key = trim(line.substr(0, line.find_first_of("=:\r")));
     const size_t separator = line.find_first_of("=:");
-    if (separator == std::string::npos) return {trim(line), std::nullopt};
-    return {trim(line.substr(0, separator)), trim(line.substr(separator + 1))};
+    if (separator == std::string::npos) return {key, std::nullopt};
+    return {key, trim(line.substr(separator + 1))};
 }
 
 // Checks of a MetaImage header that ITK 5.2's MetaIO does not make, up to the
 // ElementDataFile line that ends the header (found by fuzzing, fuzz/regressions/
 // metaimage):
+// - MetaIO does not read a header line by line: after a key it skips to the
+//   next '=' or ':', across line ends, and takes what follows as the value.
+//   A line without a separator, or with nothing after it, makes the next line
+//   its value; when that line is ElementDataFile, the voxels that follow are
+//   read as more header. So every non-blank line up to ElementDataFile must be
+//   "key = value" with a key and a value, and the checks below then see the
+//   lines MetaIO sees.
 // - MetaIO copies every key (the text up to '=', ':' or the end of the line,
 //   up to 500 characters) into a field name of 255 characters with strcpy: a
 //   longer key overflows it; no run of characters between separators may be
@@ -288,6 +296,14 @@ std::pair<std::string, std::optional<std::string>> metaimage_field(const std::st
 //   CompressedDataSize must be a positive integer no larger than the data
 //   that follow the header (or the data file), and the stream must not ask
 //   for a dictionary.
+// - Each field that has one value per dimension (DimSize, ElementSpacing,
+//   Offset, TransformMatrix with NDims x NDims) is read as NDims numbers cast
+//   to int, into a buffer of MET_MAX_NUMBER_OF_FIELD_VALUES: an NDims beyond
+//   int makes it read for hours, one beyond 64 overflows the buffer with the
+//   matrix. So NDims, read as MetaIO reads it (a double), must lie in
+//   [1, 64].
+constexpr int kMaxMetaImageDims = 64; // 64 x 64 = MET_MAX_NUMBER_OF_FIELD_VALUES
+
 void check_metaimage(const std::filesystem::path& path)
 {
     const std::string name = path.string();
@@ -304,13 +320,24 @@ void check_metaimage(const std::filesystem::path& path)
                                      std::to_string(MET_MAX_NAME_SIZE - 1) + " characters",
                                  hint);
         }
+        if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
         const auto [key, value] = metaimage_field(line);
-        if ((key == "CompressedData" || key == "CompressedDataSize" || key == "ElementDataFile") && !value)
-            throw InputError(name + " has a header line '" + key + "' without '=' and a value", hint);
+        if (key.empty() || !value || value->empty())
+            throw InputError(name + " has a header line '" + one_line(line, 40) +
+                                 "' that is not 'key = value'",
+                             hint);
         // MetaIO takes a value beginning with T, t or 1 for true.
         if (key == "CompressedData")
             compressed = !value->empty() && std::string_view("Tt1").find(value->front()) != std::string_view::npos;
         if (key == "CompressedDataSize") compressed_size = value;
+        if (key == "NDims" && value) {
+            std::istringstream number(*value);
+            double dims = 0;
+            if (number >> dims && !(dims >= 1 && dims < kMaxMetaImageDims + 1))
+                throw InputError(name + " has NDims = '" + value->substr(0, 40) + "'; a MetaImage has 1 to " +
+                                     std::to_string(kMaxMetaImageDims) + " dimensions (3 for a volume)",
+                                 hint);
+        }
         if (key != "ElementDataFile") continue;
 
         // A pattern of slice files, "name%03d.raw first last step": MetaIO

@@ -707,6 +707,30 @@ TEST(ImageImporter, RefusesMalformedFiles)
     for (const std::string bad : {"", " 1 2", " 1 2 0", " 2 1 1", " 1 2 x"})
         expect_refused("pattern.mhd", slices + bad + "\n", "file pattern");
 
+    // NDims sets how many numbers MetaIO reads for DimSize, Offset and the
+    // NDims x NDims TransformMatrix, into a buffer of 4096: a huge or negative
+    // NDims read for hours, one above 64 overflowed it (found by fuzzing).
+    const std::string volume = mha({2, 2, 2}, {1, 1, 1}, {0, 0, 0}, "MET_UCHAR", std::string(8, '\1'));
+    const size_t dims_at = volume.find("NDims = 3\n");
+    ASSERT_NE(dims_at, std::string::npos);
+    for (const std::string bad : {"22222222222222222222222222222223", "-3", "0", "65", "1e9"}) {
+        std::string odd = volume;
+        odd.replace(dims_at, 10, "NDims = " + bad + "\n");
+        expect_refused("ndims.mha", odd, "NDims = '" + bad + "'");
+    }
+    // MetaIO takes the text after the next '=' as a key's value, across line
+    // ends: a line without one, or with an empty value, swallowed the
+    // ElementDataFile line below it and the voxels were read as header, where
+    // a long key overflowed MetaIO's field name (found by fuzzing).
+    const size_t type_at = volume.find("ElementType");
+    for (const std::string bad : {"Junk\n", "Comment = \n", " = 1\n"}) {
+        std::string odd = volume;
+        odd.insert(type_at, bad);
+        expect_refused("line.mha", odd, "that is not 'key = value'");
+    }
+    write_bytes(s.dir / "three.mha", volume);
+    EXPECT_EQ(read_image(s.dir / "three.mha")->activeVoxelCount(), 8u);
+
     // Zero sizes.
     Nifti zero = label_image();
     zero.dim[3] = 0;
