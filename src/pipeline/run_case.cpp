@@ -196,6 +196,9 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
                             {"flips_3_2", v.flips_32},
                             {"flips_2_3", v.flips_23},
                             {"flips_4_4", v.flips_44},
+                            {"surface_quads", v.surface_quads},
+                            {"surface_diagonals_flipped", v.surface_flips},
+                            {"insertion_retries", v.insertion_retries},
                             {"quality_before_flips", quality(v.before_flips)},
                             {"quality_after_flips", quality(v.after_flips)},
                             {"quality_after_sliver_removal", quality(v.after_slivers)}};

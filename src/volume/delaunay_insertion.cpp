@@ -149,6 +149,7 @@ public:
     void output(InsertionResult& result)
     {
         result.quads = quads_;
+        for (const auto& [first, second] : quad_triangles_) result.quad_triangles.push_back({first, second});
         result.points.assign(surface_.points.begin(), surface_.points.end());
         result.source.resize(n_);
         for (int32_t i = 0; i < n_; ++i) result.source[i] = i;

@@ -26,6 +26,7 @@ struct InsertionResult {
     std::vector<int32_t> missing_triangles; // surface triangles that are not facets, or whose sides clash
     std::vector<std::array<int32_t, 4>> quads; // surface quads (a, b, c, d), triangles (a, b, c) and (a, c, d),
                                                // meshed through their stand-ins (a, b, d) and (b, c, d)
+    std::vector<std::array<int32_t, 2>> quad_triangles; // per quad: the ids of (a, b, c) and (a, c, d)
     int64_t inserted = 0, rejected_small = 0, rejected_filler = 0;
     int64_t rejected_surface = 0; // the point does not see a surface triangle bounding its cavity
     int64_t rejected_other = 0;   // outside the surface or on a vertex

@@ -2,6 +2,7 @@
 // Tet mesh improvement, paper section 2.4: flips with the volume criterion,
 // then sliver removal (own design, in the spirit of the paper's tet crushing).
 
+#include "core/surface_mesh.h"
 #include "core/tet_mesh.h"
 
 #include <array>
@@ -20,6 +21,22 @@ namespace scalemesh {
 // (a, c, b, m), (a, d, c, m) close the quad. Returns the quads where both
 // fail, leaving them as they were.
 std::vector<int32_t> repair_surface_quads(TetMesh& mesh, const std::vector<std::array<int32_t, 4>>& quads);
+
+// A surface quad (a, b, c, d) that repair_surface_quads could not put back
+// on its diagonal (a, c) is still meshed, on the inside, up to the Delaunay
+// facets (a, b, d), (b, c, d) that stood in for it. The surface can take
+// those two triangles instead: an edge flip of the surface, which moves the
+// enclosed volume by the tet (a, b, c, d) alone. For each quad in `which`
+// (indices into `quads`, whose triangles (a, b, c), (a, c, d) have the ids
+// `quad_triangles`), the flip is made in `triangles` (a copy of
+// surface.triangles, the two ids keeping their patch) when the surface stays
+// a 2-manifold with the same patches and no fold: (b, d) is not already a
+// surface edge, both triangles are in one patch, and each new triangle's
+// normal is within 60 degrees of the other's and of the quad's. Returns the
+// quads of `which` not flipped.
+std::vector<int32_t> flip_surface_quads(const SurfaceMesh& surface, const std::vector<std::array<int32_t, 4>>& quads,
+                                        const std::vector<std::array<int32_t, 2>>& quad_triangles,
+                                        const std::vector<int32_t>& which, std::vector<Triangle>& triangles);
 
 struct FlipCounts {
     int64_t flips_32 = 0, flips_23 = 0, flips_44 = 0;

@@ -187,12 +187,15 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
     result.filtered_points = static_cast<int64_t>(raw.size() - points.size());
     result.seconds_points = seconds_since(t0);
 
-    // A quad whose re-triangulation fails gets a bounded retry: the whole
-    // insertion runs again with its diagonal protected, so no interior
-    // point joins it and the tets to re-triangulate are few and simple.
+    // A quad whose re-triangulation fails takes the Delaunay diagonal into
+    // the surface (flip_surface_quads). Where that flip is not allowed,
+    // it gets a bounded retry: the whole insertion runs again with its
+    // diagonal protected, so no interior point joins it and the tets to
+    // re-triangulate are few and simple.
     InsertionParams insertion{params.insertion_passes, params.min_volume_fraction, {}};
     InsertionResult ins;
     std::vector<int32_t> failed_quads;
+    std::vector<Triangle> boundary;
     TetMesh& mesh = result.mesh;
     for (int attempt = 0;; ++attempt) {
         ins = insert_and_classify(surface, points, insertion);
@@ -201,6 +204,12 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
         mesh.points = ins.points;
         mesh.tets = ins.tets;
         failed_quads = repair_surface_quads(mesh, ins.quads);
+        boundary = surface.triangles;
+        if (!failed_quads.empty()) {
+            const size_t before = failed_quads.size();
+            failed_quads = flip_surface_quads(surface, ins.quads, ins.quad_triangles, failed_quads, boundary);
+            result.surface_flips = static_cast<int64_t>(before - failed_quads.size());
+        }
         if (failed_quads.empty() || attempt == 2) break;
         for (int32_t q : failed_quads) insertion.protected_edges.push_back({ins.quads[q][1], ins.quads[q][3]});
         result.insertion_retries = attempt + 1;
@@ -222,7 +231,7 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
                                         "). Refine the surface there (smaller d) and re-run",
                                     ins.missing_triangles, nodes);
     }
-    mesh.boundary_faces = surface.triangles;
+    mesh.boundary_faces = std::move(boundary);
     mesh.boundary_patch = surface.triangle_patch;
     result.surface_quads = static_cast<int64_t>(ins.quads.size());
     if (!failed_quads.empty()) {
