@@ -379,12 +379,13 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
         }
         // The surface is the mesh's boundary, with any quad diagonals the
         // volume stage flipped to the Delaunay ones.
-        if (run.volume->surface_flips > 0) run.remeshed->surface.triangles = run.volume->mesh.boundary_faces;
+        const int64_t flips = run.volume->quad_flips + run.volume->facet_flips;
+        if (flips > 0) run.remeshed->surface.triangles = run.volume->mesh.boundary_faces;
         const QualityReport& q = run.volume->after_slivers;
         std::ostringstream summary;
         summary << q.tets << " tets, " << run.volume->mesh.points.size() << " points; aspect ratio min "
                 << q.min_aspect_ratio << ", below 0.1: " << 100 * q.fraction_below_0_1 << "%";
-        if (run.volume->surface_flips > 0) summary << "; " << run.volume->surface_flips << " surface diagonals flipped";
+        if (flips > 0) summary << "; " << flips << " surface diagonals flipped to Delaunay facets";
         clock.done(summary.str());
         return run;
     }

@@ -1,6 +1,7 @@
 #include "volume/delaunay_insertion.h"
 
 #include "core/errors.h"
+#include "volume/improve.h"
 
 #include <CGAL/Delaunay_triangulation_3.h>
 #include <CGAL/Delaunay_triangulation_cell_base_3.h>
@@ -14,6 +15,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <set>
 #include <unordered_map>
 #include <unordered_set>
 
@@ -76,11 +78,10 @@ class ConditionalDelaunay {
 public:
     ConditionalDelaunay(const SurfaceMesh& surface, const std::vector<OffsetPoint>& points,
                         const InsertionParams& params)
-        : surface_(surface), points_(points), params_(params), n_(static_cast<int32_t>(surface.points.size()))
+        : surface_(surface), triangles_(surface.triangles), points_(points), params_(params),
+          n_(static_cast<int32_t>(surface.points.size()))
     {
         for (const auto& e : params.protected_edges) protected_edges_.insert(edge_key(e[0], e[1]));
-        barrier_.reserve(surface.triangles.size());
-        for (const Triangle& tri : surface.triangles) barrier_.emplace(make_key(tri[0], tri[1], tri[2]), tri);
         stamp_.assign(static_cast<size_t>(n_) + points.size(), 0);
     }
 
@@ -101,6 +102,9 @@ public:
             throw InputError("volume: the surface points are coplanar", "the surface must enclose a volume");
         surface_vertex_.resize(n_);
         for (auto v = dt_.finite_vertices_begin(); v != dt_.finite_vertices_end(); ++v) surface_vertex_[v->info()] = v;
+        result.surface_flips = flip_to_facets();
+        barrier_.reserve(triangles_.size());
+        for (const Triangle& tri : triangles_) barrier_.emplace(make_key(tri[0], tri[1], tri[2]), tri);
         find_quads();
         classify_sides(result);
         return result.missing_triangles.empty();
@@ -179,7 +183,65 @@ public:
         result.unused = result.inserted - used;
     }
 
+    const std::vector<Triangle>& triangles() const { return triangles_; }
+
 private:
+    bool is_facet(const Triangle& tri) const
+    {
+        return has_facet(surface_vertex_[tri[0]], surface_vertex_[tri[1]], surface_vertex_[tri[2]]);
+    }
+
+    // A surface triangle (a, b, c) that is not a Delaunay facet while its
+    // neighbour (a, c, d) is one often has the other split of their quad,
+    // (a, b, d) and (b, c, d), as facets: then a flip of the surface edge
+    // (a, c) to (b, d) makes the surface conform there, where refining the
+    // surface around it, remeshing and building the volume again would
+    // otherwise be needed. Made where surface_flip_allowed. Returns the
+    // number of flips.
+    int64_t flip_to_facets()
+    {
+        std::vector<int32_t> missing;
+        for (size_t t = 0; t < triangles_.size(); ++t)
+            if (!is_facet(triangles_[t])) missing.push_back(static_cast<int32_t>(t));
+        if (missing.empty()) return 0;
+        std::unordered_map<uint64_t, int32_t> triangle_of; // directed edge -> triangle
+        auto directed = [](int32_t u, int32_t v) { return (uint64_t(uint32_t(u)) << 32) | uint32_t(v); };
+        std::set<std::pair<int32_t, int32_t>> edges;
+        for (size_t t = 0; t < triangles_.size(); ++t)
+            for (int e = 0; e < 3; ++e) {
+                const int32_t u = triangles_[t][e], v = triangles_[t][(e + 1) % 3];
+                triangle_of[directed(u, v)] = static_cast<int32_t>(t);
+                edges.insert(std::minmax(u, v));
+            }
+        int64_t flips = 0;
+        for (int32_t t : missing) {
+            if (is_facet(triangles_[t])) continue; // flipped as the neighbour of an earlier one
+            for (int e = 0; e < 3; ++e) {
+                const Triangle tri = triangles_[t];
+                const int32_t a = tri[(e + 2) % 3], b = tri[e], c = tri[(e + 1) % 3];
+                const auto it = triangle_of.find(directed(a, c));
+                if (it == triangle_of.end()) continue;
+                const int32_t o = it->second;
+                int32_t d = -1;
+                for (int32_t v : triangles_[o])
+                    if (v != a && v != c) d = v;
+                if (!is_facet(triangles_[o]) || !is_facet({a, b, d}) || !is_facet({b, c, d}) ||
+                    !surface_flip_allowed(surface_, {a, b, c, d}, {t, o}, edges))
+                    continue;
+                triangles_[t] = {a, b, d};
+                triangles_[o] = {b, c, d};
+                for (const auto& [u, v] : {std::pair{a, c}, std::pair{c, a}}) triangle_of.erase(directed(u, v));
+                triangle_of[directed(a, b)] = t, triangle_of[directed(b, d)] = t, triangle_of[directed(d, a)] = t;
+                triangle_of[directed(b, c)] = o, triangle_of[directed(c, d)] = o, triangle_of[directed(d, b)] = o;
+                edges.erase(std::minmax(a, c));
+                edges.insert(std::minmax(b, d));
+                ++flips;
+                break;
+            }
+        }
+        return flips;
+    }
+
     // A surface quad (a, b, c, d) split along (a, c) whose four points are
     // (nearly) cospherical often comes out of the Delaunay triangulation split
     // along (b, d) instead. Such a pair of triangles cannot appear later (an
@@ -191,8 +253,8 @@ private:
     void find_quads()
     {
         std::vector<int32_t> missing;
-        for (size_t t = 0; t < surface_.triangles.size(); ++t) {
-            const Triangle& tri = surface_.triangles[t];
+        for (size_t t = 0; t < triangles_.size(); ++t) {
+            const Triangle& tri = triangles_[t];
             if (!has_facet(surface_vertex_[tri[0]], surface_vertex_[tri[1]], surface_vertex_[tri[2]]))
                 missing.push_back(static_cast<int32_t>(t));
         }
@@ -200,17 +262,17 @@ private:
         auto directed = [](int32_t u, int32_t v) { return (uint64_t(uint32_t(u)) << 32) | uint32_t(v); };
         for (int32_t t : missing)
             for (int e = 0; e < 3; ++e)
-                missing_edge[directed(surface_.triangles[t][e], surface_.triangles[t][(e + 1) % 3])] = t;
-        std::vector<char> used(surface_.triangles.size(), 0);
+                missing_edge[directed(triangles_[t][e], triangles_[t][(e + 1) % 3])] = t;
+        std::vector<char> used(triangles_.size(), 0);
         for (int32_t t : missing) {
             if (used[t]) continue;
-            const Triangle& tri = surface_.triangles[t];
+            const Triangle& tri = triangles_[t];
             for (int e = 0; e < 3; ++e) {
                 // tri = (a, b, c) with the shared edge c -> a; the other triangle has a -> c.
                 const int32_t a = tri[(e + 2) % 3], b = tri[e], c = tri[(e + 1) % 3];
                 const auto it = missing_edge.find(directed(a, c));
                 if (it == missing_edge.end() || used[it->second]) continue;
-                const Triangle& other = surface_.triangles[it->second];
+                const Triangle& other = triangles_[it->second];
                 int32_t d = -1;
                 for (int32_t v : other)
                     if (v != a && v != c) d = v;
@@ -240,8 +302,8 @@ private:
         std::vector<char> in_quad(n_, 0);
         for (const auto& q : quads_)
             for (int32_t v : q) in_quad[v] = 1;
-        for (size_t t = 0; t < surface_.triangles.size(); ++t) {
-            const Triangle& tri = surface_.triangles[t];
+        for (size_t t = 0; t < triangles_.size(); ++t) {
+            const Triangle& tri = triangles_[t];
             if (!seed(tri, stack)) {
                 if (in_quad[tri[0]] && in_quad[tri[1]] && in_quad[tri[2]] && quad_triangle(tri)) continue;
                 result.missing_triangles.push_back(static_cast<int32_t>(t));
@@ -508,6 +570,7 @@ private:
 
     std::unordered_set<uint64_t> protected_edges_;
     const SurfaceMesh& surface_;
+    std::vector<Triangle> triangles_; // triangles_ with the flips of flip_to_facets
     const std::vector<OffsetPoint>& points_;
     const InsertionParams& params_;
     const int32_t n_;
@@ -533,6 +596,7 @@ InsertionResult insert_and_classify(const SurfaceMesh& surface, const std::vecto
     ConditionalDelaunay cd(surface, points, params);
     auto t0 = Clock::now();
     const bool conforming = cd.insert_surface(result);
+    result.triangles = cd.triangles();
     result.seconds_classify = seconds_since(t0);
     if (!conforming) return result;
     t0 = Clock::now();

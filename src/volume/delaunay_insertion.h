@@ -27,6 +27,8 @@ struct InsertionResult {
     std::vector<std::array<int32_t, 4>> quads; // surface quads (a, b, c, d), triangles (a, b, c) and (a, c, d),
                                                // meshed through their stand-ins (a, b, d) and (b, c, d)
     std::vector<std::array<int32_t, 2>> quad_triangles; // per quad: the ids of (a, b, c) and (a, c, d)
+    std::vector<Triangle> triangles; // the surface triangles, ids kept, after the flips below
+    int64_t surface_flips = 0; // surface edges flipped before insertion so that both triangles are facets
     int64_t inserted = 0, rejected_small = 0, rejected_filler = 0;
     int64_t rejected_surface = 0; // the point does not see a surface triangle bounding its cavity
     int64_t rejected_other = 0;   // outside the surface or on a vertex

@@ -560,35 +560,41 @@ std::vector<int32_t> repair_surface_quads(TetMesh& mesh, const std::vector<std::
     return failed;
 }
 
-std::vector<int32_t> flip_surface_quads(const SurfaceMesh& surface, const std::vector<std::array<int32_t, 4>>& quads,
-                                        const std::vector<std::array<int32_t, 2>>& quad_triangles,
-                                        const std::vector<int32_t>& which, std::vector<Triangle>& triangles)
+bool surface_flip_allowed(const SurfaceMesh& surface, const std::array<int32_t, 4>& quad,
+                          const std::array<int32_t, 2>& ids, const std::set<std::pair<int32_t, int32_t>>& edges)
 {
     constexpr double kCos60 = 0.5;
-    std::vector<int32_t> left;
-    if (which.empty()) return left;
-    std::set<std::pair<int32_t, int32_t>> edges;
-    for (const Triangle& f : triangles)
-        for (int i = 0; i < 3; ++i) edges.insert(std::minmax(f[i], f[(i + 1) % 3]));
     const auto unit_normal = [&](int32_t u, int32_t v, int32_t w) {
         const Vec3& p = surface.points[u];
         const Vec3 n = cross(surface.points[v] - p, surface.points[w] - p);
         return norm2(n) > 0 ? normalized(n) : Vec3{};
     };
     const auto patch = [&](int32_t t) { return surface.triangle_patch.empty() ? 0 : surface.triangle_patch[t]; };
+    const auto [a, b, c, d] = quad;
+    if (edges.count(std::minmax(b, d)) || patch(ids[0]) != patch(ids[1])) return false;
+    const Vec3 n1 = unit_normal(a, b, d), n2 = unit_normal(b, c, d);
+    const Vec3 both = unit_normal(a, b, c) + unit_normal(a, c, d);
+    const double reach = kCos60 * norm(both);
+    return dot(n1, n2) > kCos60 && dot(n1, both) > reach && dot(n2, both) > reach;
+}
+
+std::vector<int32_t> flip_surface_quads(const SurfaceMesh& surface, const std::vector<std::array<int32_t, 4>>& quads,
+                                        const std::vector<std::array<int32_t, 2>>& quad_triangles,
+                                        const std::vector<int32_t>& which, std::vector<Triangle>& triangles)
+{
+    std::vector<int32_t> left;
+    if (which.empty()) return left;
+    std::set<std::pair<int32_t, int32_t>> edges;
+    for (const Triangle& f : triangles)
+        for (int i = 0; i < 3; ++i) edges.insert(std::minmax(f[i], f[(i + 1) % 3]));
     for (int32_t q : which) {
         const auto [a, b, c, d] = quads[q];
-        const auto [abc, acd] = quad_triangles[q];
-        const Vec3 n1 = unit_normal(a, b, d), n2 = unit_normal(b, c, d);
-        const Vec3 quad = unit_normal(a, b, c) + unit_normal(a, c, d);
-        const double reach = kCos60 * norm(quad);
-        if (edges.count(std::minmax(b, d)) || patch(abc) != patch(acd) || !(dot(n1, n2) > kCos60) ||
-            !(dot(n1, quad) > reach) || !(dot(n2, quad) > reach)) {
+        if (!surface_flip_allowed(surface, quads[q], quad_triangles[q], edges)) {
             left.push_back(q);
             continue;
         }
-        triangles[abc] = {a, b, d};
-        triangles[acd] = {b, c, d};
+        triangles[quad_triangles[q][0]] = {a, b, d};
+        triangles[quad_triangles[q][1]] = {b, c, d};
         edges.erase(std::minmax(a, c));
         edges.insert(std::minmax(b, d));
     }

@@ -7,6 +7,8 @@
 
 #include <array>
 #include <cstdint>
+#include <set>
+#include <utility>
 #include <vector>
 
 namespace scalemesh {
@@ -29,11 +31,16 @@ std::vector<int32_t> repair_surface_quads(TetMesh& mesh, const std::vector<std::
 // enclosed volume by the tet (a, b, c, d) alone. For each quad in `which`
 // (indices into `quads`, whose triangles (a, b, c), (a, c, d) have the ids
 // `quad_triangles`), the flip is made in `triangles` (a copy of
-// surface.triangles, the two ids keeping their patch) when the surface stays
-// a 2-manifold with the same patches and no fold: (b, d) is not already a
-// surface edge, both triangles are in one patch, and each new triangle's
-// normal is within 60 degrees of the other's and of the quad's. Returns the
-// quads of `which` not flipped.
+// surface.triangles, the two ids keeping their patch) when
+// surface_flip_allowed. Returns the quads of `which` not flipped.
+// Whether the surface may flip the diagonal (a, c) of its triangles
+// `ids` = {(a, b, c), (a, c, d)} of `triangles` to (b, d): (b, d) is not
+// in `edges` (the surface's undirected edges, (min, max)), both triangles
+// are in one patch, and the normals of (a, b, d) and (b, c, d) are within 60
+// degrees of each other and of the quad's.
+bool surface_flip_allowed(const SurfaceMesh& surface, const std::array<int32_t, 4>& quad,
+                          const std::array<int32_t, 2>& ids, const std::set<std::pair<int32_t, int32_t>>& edges);
+
 std::vector<int32_t> flip_surface_quads(const SurfaceMesh& surface, const std::vector<std::array<int32_t, 4>>& quads,
                                         const std::vector<std::array<int32_t, 2>>& quad_triangles,
                                         const std::vector<int32_t>& which, std::vector<Triangle>& triangles);

@@ -204,11 +204,12 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
         mesh.points = ins.points;
         mesh.tets = ins.tets;
         failed_quads = repair_surface_quads(mesh, ins.quads);
-        boundary = surface.triangles;
+        boundary = ins.triangles;
+        result.facet_flips = ins.surface_flips;
         if (!failed_quads.empty()) {
             const size_t before = failed_quads.size();
             failed_quads = flip_surface_quads(surface, ins.quads, ins.quad_triangles, failed_quads, boundary);
-            result.surface_flips = static_cast<int64_t>(before - failed_quads.size());
+            result.quad_flips = static_cast<int64_t>(before - failed_quads.size());
         }
         if (failed_quads.empty() || attempt == 2) break;
         for (int32_t q : failed_quads) insertion.protected_edges.push_back({ins.quads[q][1], ins.quads[q][3]});

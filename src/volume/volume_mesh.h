@@ -65,8 +65,10 @@ struct VolumeResult {
     int64_t unused_points = 0;
     int64_t insertion_retries = 0; // re-runs of the insertion with failed quad diagonals protected
     int64_t surface_quads = 0;   // surface quads split the other way by Delaunay, re-triangulated
-    int64_t surface_flips = 0;   // of those, the ones whose surface diagonal was flipped to the
-                                 // Delaunay one instead (mesh.boundary_faces differ there)
+    int64_t quad_flips = 0;      // of those, the ones whose surface diagonal was flipped to the
+                                 // Delaunay one instead (flip_surface_quads)
+    int64_t facet_flips = 0;     // surface edges flipped before insertion so that a triangle that was
+                                 // not a Delaunay facet becomes two that are (delaunay_insertion.cpp)
     int64_t flips_32 = 0, flips_23 = 0, flips_44 = 0;
     int64_t sliver_flips = 0, sliver_moves = 0;
     int64_t sliver_splits = 0;   // edges of surface-point slivers split by a new interior point
@@ -95,8 +97,8 @@ public:
 //
 // Guarantees on return: mesh.points[0..n) are surface.points unchanged;
 // mesh.boundary_faces == surface.triangles (same order, same orientation)
-// except at the surface_flips quads whose diagonal was flipped to the
-// Delaunay one (the pair of triangles keeps its two ids and patch),
+// except at the quad_flips + facet_flips pairs of triangles whose diagonal
+// was flipped to the Delaunay one (each pair keeps its two ids and patch),
 // boundary_patch == surface.triangle_patch; every tet is positively oriented;
 // the tets fill exactly the region the surface encloses (tet_mesh_facts gives
 // boundary_matches and the enclosed volume to round-off); each surface node's

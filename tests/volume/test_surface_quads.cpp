@@ -2,8 +2,9 @@
 // diagonal and that cannot be re-triangulated onto the surface's: the
 // surface takes the Delaunay diagonal instead (flip_surface_quads), where
 // that keeps it a 2-manifold with its patches and without a fold. Then on a
-// phantom where such a quad occurs, the whole pipeline: no retry, and the
-// mesh boundary is the surface the run reports.
+// phantom where such a quad occurs, and one where a surface triangle is not
+// a Delaunay facet but the other split of its quad is, the whole pipeline:
+// no retry, and the mesh boundary is the surface the run reports.
 
 #include "core/adjacency.h"
 #include "core/surface_mesh.h"
@@ -15,6 +16,7 @@
 
 #include <algorithm>
 #include <map>
+#include <sstream>
 
 namespace scalemesh {
 namespace {
@@ -88,20 +90,34 @@ TEST(SurfaceQuads, NoFlipThatFoldsTheSurface)
     EXPECT_EQ(flip_surface_quads(ridge, kQuads, kQuadTriangles, {0}, triangles), std::vector<int32_t>{0});
 }
 
-// The pretzel at 96 voxels across its 28 mm box has one surface quad that
-// the repair cannot re-triangulate (measured with `scalemesh -v run`: "surface
-// quads split the other way 5: 4 re-triangulated, 1 diagonals flipped"). It
-// used to cost the whole volume stage twice more and then a remesh.
-TEST(SurfaceQuads, APhantomsUnrepairableQuadIsFlippedWithoutARetry)
+// Two phantoms where the flips occur, measured with `scalemesh -v run`: the
+// pretzel at 96 voxels across a 28 mm box has a quad the repair cannot
+// re-triangulate ("5: 4 re-triangulated, 1 diagonals flipped"), the
+// bifurcation at 88 a triangle that is not a Delaunay facet while the other
+// split of its quad is ("1 other surface edges flipped"). The first used to
+// cost the volume stage twice more and then a remesh, the second a remesh.
+struct FlipCase {
+    std::string shape;
+    int box;
+    bool quad; // the flip expected: an unrepairable quad, or a triangle that is not a facet
+};
+
+std::ostream& operator<<(std::ostream& os, const FlipCase& c) { return os << c.shape << c.box; }
+
+class SurfaceFlipPhantom : public ::testing::TestWithParam<FlipCase> {};
+
+TEST_P(SurfaceFlipPhantom, FlipsWithoutARetryAndTheMeshBoundaryIsTheSurface)
 {
-    const CaseConfig config = parse_case("[input]\nphantom = \"pretzel\"\nvoxel_size = 0.2916666666666667\n"
-                                         "[sizing]\nL_min = \"0.5 voxels\"\nL_max = \"12 voxels\"\n"
-                                         "[run]\nthreads = 2\n",
-                                         ".", "test");
+    const FlipCase& c = GetParam();
+    std::ostringstream text;
+    text.precision(17);
+    text << "[input]\nphantom = \"" << c.shape << "\"\nvoxel_size = " << 28.0 / c.box << "\n"
+         << "[sizing]\nL_min = \"0.5 voxels\"\nL_max = \"12 voxels\"\n[run]\nthreads = 2\n";
+    const CaseConfig config = parse_case(text.str(), ".", "test");
     const PipelineRun run = run_pipeline(config, {.sizing = true, .remesh = true, .volume = true});
     ASSERT_TRUE(run.remeshed && run.volume);
     const VolumeResult& v = *run.volume;
-    ASSERT_GE(v.surface_flips, 1) << "this phantom no longer has an unrepairable quad; pick another size";
+    ASSERT_GE(c.quad ? v.quad_flips : v.facet_flips, 1) << "this phantom no longer needs the flip; pick another size";
     EXPECT_EQ(v.insertion_retries, 0);
     EXPECT_TRUE(run.refinements.empty());
 
@@ -119,6 +135,9 @@ TEST(SurfaceQuads, APhantomsUnrepairableQuadIsFlippedWithoutARetry)
     EXPECT_TRUE(mesh.boundary_matches);
     EXPECT_NEAR(mesh.volume, facts.signed_volume, 1e-9 * facts.signed_volume);
 }
+
+INSTANTIATE_TEST_SUITE_P(Phantoms, SurfaceFlipPhantom,
+                         ::testing::Values(FlipCase{"pretzel", 96, true}, FlipCase{"bifurcation", 88, false}));
 
 } // namespace
 } // namespace scalemesh
