@@ -377,15 +377,15 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
                        " nodes, remeshing again");
             continue;
         }
-        // The surface is the mesh's boundary, with any quad diagonals the
-        // volume stage flipped to the Delaunay ones.
-        const int64_t flips = run.volume->quad_flips + run.volume->facet_flips;
-        if (flips > 0) run.remeshed->surface.triangles = run.volume->mesh.boundary_faces;
+        // The surface is the mesh's boundary, with any diagonals the volume
+        // stage flipped (to Delaunay facets, or by peeling a flat cap).
+        const int64_t flips = run.volume->quad_flips + run.volume->facet_flips + run.volume->caps_peeled;
+        run.remeshed->surface.triangles = run.volume->mesh.boundary_faces;
         const QualityReport& q = run.volume->after_slivers;
         std::ostringstream summary;
         summary << q.tets << " tets, " << run.volume->mesh.points.size() << " points; aspect ratio min "
                 << q.min_aspect_ratio << ", below 0.1: " << 100 * q.fraction_below_0_1 << "%";
-        if (flips > 0) summary << "; " << flips << " surface diagonals flipped to Delaunay facets";
+        if (flips > 0) summary << "; " << flips << " surface diagonals flipped";
         clock.done(summary.str());
         return run;
     }

@@ -199,6 +199,7 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
                             {"surface_quads", v.surface_quads},
                             {"surface_quads_flipped", v.quad_flips},
                             {"surface_facet_flips", v.facet_flips},
+                            {"surface_caps_peeled", v.caps_peeled},
                             {"insertion_retries", v.insertion_retries},
                             {"quality_before_flips", quality(v.before_flips)},
                             {"quality_after_flips", quality(v.after_flips)},

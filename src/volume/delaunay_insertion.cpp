@@ -214,8 +214,9 @@ private:
                 edges.insert(std::minmax(u, v));
             }
         int64_t flips = 0;
+        std::vector<char> flipped(triangles_.size(), 0); // each triangle is flipped once at most
         for (int32_t t : missing) {
-            if (is_facet(triangles_[t])) continue; // flipped as the neighbour of an earlier one
+            if (flipped[t]) continue;
             for (int e = 0; e < 3; ++e) {
                 const Triangle tri = triangles_[t];
                 const int32_t a = tri[(e + 2) % 3], b = tri[e], c = tri[(e + 1) % 3];
@@ -225,7 +226,7 @@ private:
                 int32_t d = -1;
                 for (int32_t v : triangles_[o])
                     if (v != a && v != c) d = v;
-                if (!is_facet(triangles_[o]) || !is_facet({a, b, d}) || !is_facet({b, c, d}) ||
+                if (flipped[o] || !is_facet(triangles_[o]) || !is_facet({a, b, d}) || !is_facet({b, c, d}) ||
                     !surface_flip_allowed(surface_, {a, b, c, d}, {t, o}, edges))
                     continue;
                 triangles_[t] = {a, b, d};
@@ -235,6 +236,7 @@ private:
                 triangle_of[directed(b, c)] = o, triangle_of[directed(c, d)] = o, triangle_of[directed(d, b)] = o;
                 edges.erase(std::minmax(a, c));
                 edges.insert(std::minmax(b, d));
+                flipped[t] = flipped[o] = 1;
                 ++flips;
                 break;
             }

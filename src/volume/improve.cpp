@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <map>
 #include <set>
 #include <vector>
 
@@ -560,22 +561,104 @@ std::vector<int32_t> repair_surface_quads(TetMesh& mesh, const std::vector<std::
     return failed;
 }
 
+namespace {
+
+Vec3 unit_normal(const std::vector<Vec3>& points, const Triangle& f)
+{
+    const Vec3 n = cross(points[f[1]] - points[f[0]], points[f[2]] - points[f[0]]);
+    return norm2(n) > 0 ? normalized(n) : Vec3{};
+}
+
+// The no-fold rule of a flip of the surface: the new pair of triangles'
+// normals within 60 degrees of each other and of the old pair's.
+bool flip_folds_little(const std::vector<Vec3>& points, const Triangle& old1, const Triangle& old2,
+                       const Triangle& new1, const Triangle& new2)
+{
+    constexpr double kCos60 = 0.5;
+    const Vec3 n1 = unit_normal(points, new1), n2 = unit_normal(points, new2);
+    const Vec3 both = unit_normal(points, old1) + unit_normal(points, old2);
+    const double reach = kCos60 * norm(both);
+    return dot(n1, n2) > kCos60 && dot(n1, both) > reach && dot(n2, both) > reach;
+}
+
+} // namespace
+
 bool surface_flip_allowed(const SurfaceMesh& surface, const std::array<int32_t, 4>& quad,
                           const std::array<int32_t, 2>& ids, const std::set<std::pair<int32_t, int32_t>>& edges)
 {
-    constexpr double kCos60 = 0.5;
-    const auto unit_normal = [&](int32_t u, int32_t v, int32_t w) {
-        const Vec3& p = surface.points[u];
-        const Vec3 n = cross(surface.points[v] - p, surface.points[w] - p);
-        return norm2(n) > 0 ? normalized(n) : Vec3{};
-    };
     const auto patch = [&](int32_t t) { return surface.triangle_patch.empty() ? 0 : surface.triangle_patch[t]; };
     const auto [a, b, c, d] = quad;
     if (edges.count(std::minmax(b, d)) || patch(ids[0]) != patch(ids[1])) return false;
-    const Vec3 n1 = unit_normal(a, b, d), n2 = unit_normal(b, c, d);
-    const Vec3 both = unit_normal(a, b, c) + unit_normal(a, c, d);
-    const double reach = kCos60 * norm(both);
-    return dot(n1, n2) > kCos60 && dot(n1, both) > reach && dot(n2, both) > reach;
+    return flip_folds_little(surface.points, {a, b, c}, {a, c, d}, {a, b, d}, {b, c, d});
+}
+
+int64_t peel_surface_caps(TetMesh& mesh, int32_t surface_points, double threshold)
+{
+    const std::vector<Vec3>& p = mesh.points;
+    std::vector<size_t> caps;
+    std::vector<char> involved(surface_points, 0);
+    for (size_t t = 0; t < mesh.tets.size(); ++t) {
+        const Tet& tet = mesh.tets[t];
+        if (*std::max_element(tet.begin(), tet.end()) >= surface_points ||
+            !(tet_aspect_ratio(p[tet[0]], p[tet[1]], p[tet[2]], p[tet[3]]) < threshold))
+            continue;
+        caps.push_back(t);
+        for (int32_t v : tet) involved[v] = 1;
+    }
+    if (caps.empty()) return 0;
+
+    // The boundary faces and edges among the candidates' points.
+    const auto key = [](Triangle f) {
+        std::sort(f.begin(), f.end());
+        return f;
+    };
+    std::map<Triangle, int32_t> face_id;
+    std::set<std::pair<int32_t, int32_t>> edges;
+    for (size_t f = 0; f < mesh.boundary_faces.size(); ++f) {
+        const Triangle& tri = mesh.boundary_faces[f];
+        if (involved[tri[0]] && involved[tri[1]] && involved[tri[2]]) face_id[key(tri)] = static_cast<int32_t>(f);
+        for (int i = 0; i < 3; ++i)
+            if (involved[tri[i]] && involved[tri[(i + 1) % 3]]) edges.insert(std::minmax(tri[i], tri[(i + 1) % 3]));
+    }
+    const auto patch = [&](int32_t f) { return mesh.boundary_patch.empty() ? 0 : mesh.boundary_patch[f]; };
+    std::vector<char> peeled(mesh.tets.size(), 0);
+    int64_t count = 0;
+    for (size_t t : caps) {
+        const Tet tet = mesh.tets[t];
+        // The face opposite each point, counter-clockwise seen from outside the tet.
+        const Triangle face[4] = {{tet[1], tet[2], tet[3]}, {tet[0], tet[3], tet[2]}, {tet[0], tet[1], tet[3]},
+                                  {tet[0], tet[2], tet[1]}};
+        std::array<int32_t, 4> id{};
+        std::vector<int> on, off;
+        for (int i = 0; i < 4; ++i) {
+            const auto it = face_id.find(key(face[i]));
+            id[i] = it == face_id.end() ? -1 : it->second;
+            (id[i] >= 0 ? on : off).push_back(i);
+        }
+        if (on.size() != 2) continue;
+        // The boundary faces opposite i and j share the edge (k, l); the
+        // faces opposite k and l, seen from the tets beyond them, replace them.
+        const int i = on[0], j = on[1], k = off[0], l = off[1];
+        const Triangle new_k{face[k][0], face[k][2], face[k][1]}, new_l{face[l][0], face[l][2], face[l][1]};
+        if (edges.count(std::minmax(tet[i], tet[j])) || patch(id[i]) != patch(id[j]) ||
+            !flip_folds_little(p, face[i], face[j], new_k, new_l))
+            continue;
+        mesh.boundary_faces[id[i]] = new_k;
+        mesh.boundary_faces[id[j]] = new_l;
+        face_id.erase(key(face[i]));
+        face_id.erase(key(face[j]));
+        face_id[key(new_k)] = id[i];
+        face_id[key(new_l)] = id[j];
+        edges.erase(std::minmax(tet[k], tet[l]));
+        edges.insert(std::minmax(tet[i], tet[j]));
+        peeled[t] = 1;
+        ++count;
+    }
+    size_t kept = 0;
+    for (size_t t = 0; t < mesh.tets.size(); ++t)
+        if (!peeled[t]) mesh.tets[kept++] = mesh.tets[t];
+    mesh.tets.resize(kept);
+    return count;
 }
 
 std::vector<int32_t> flip_surface_quads(const SurfaceMesh& surface, const std::vector<std::array<int32_t, 4>>& quads,

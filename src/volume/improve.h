@@ -45,6 +45,18 @@ std::vector<int32_t> flip_surface_quads(const SurfaceMesh& surface, const std::v
                                         const std::vector<std::array<int32_t, 2>>& quad_triangles,
                                         const std::vector<int32_t>& which, std::vector<Triangle>& triangles);
 
+// A flat tet of four surface points with two faces on the boundary, sharing
+// the edge (p, q), is a cap over the surface that no flip or interior move
+// can improve. Taking it out of the mesh makes its other two faces, which
+// each had one more tet, the boundary: the surface's diagonal (p, q) flips to
+// the tet's other edge (r, s). Made for tets with aspect ratio below
+// `threshold` where that keeps the boundary a 2-manifold with the same
+// patches and no fold: (r, s) is not already a boundary edge, both faces are
+// in one patch, and the new faces' normals are within 60 degrees of each
+// other and of the old pair's. The two boundary faces keep their ids and
+// patch. Returns the number of tets taken out.
+int64_t peel_surface_caps(TetMesh& mesh, int32_t surface_points, double threshold);
+
 struct FlipCounts {
     int64_t flips_32 = 0, flips_23 = 0, flips_44 = 0;
 };

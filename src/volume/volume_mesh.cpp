@@ -305,6 +305,7 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
         t0 = Clock::now();
         const SliverCounts slivers = remove_slivers(mesh, n, params.sliver_aspect_ratio, params.sliver_sweeps);
         result.sliver_flips = slivers.flips, result.sliver_moves = slivers.moves, result.sliver_splits = slivers.splits;
+        result.caps_peeled = peel_surface_caps(mesh, n, params.sliver_aspect_ratio);
         attribute_new_points(result, n);
         result.seconds_slivers = seconds_since(t0);
         result.after_slivers = quality_report(mesh);

@@ -69,6 +69,8 @@ struct VolumeResult {
                                  // Delaunay one instead (flip_surface_quads)
     int64_t facet_flips = 0;     // surface edges flipped before insertion so that a triangle that was
                                  // not a Delaunay facet becomes two that are (delaunay_insertion.cpp)
+    int64_t caps_peeled = 0;     // flat tets of four surface points with two faces on the surface taken
+                                 // out of the mesh, their other two faces the surface there (improve.h)
     int64_t flips_32 = 0, flips_23 = 0, flips_44 = 0;
     int64_t sliver_flips = 0, sliver_moves = 0;
     int64_t sliver_splits = 0;   // edges of surface-point slivers split by a new interior point
@@ -98,7 +100,8 @@ public:
 // Guarantees on return: mesh.points[0..n) are surface.points unchanged;
 // mesh.boundary_faces == surface.triangles (same order, same orientation)
 // except at the quad_flips + facet_flips pairs of triangles whose diagonal
-// was flipped to the Delaunay one (each pair keeps its two ids and patch),
+// was flipped to the Delaunay one and the caps_peeled pairs whose flat tet
+// was taken out (each pair keeps its two ids and patch),
 // boundary_patch == surface.triangle_patch; every tet is positively oriented;
 // the tets fill exactly the region the surface encloses (tet_mesh_facts gives
 // boundary_matches and the enclosed volume to round-off); each surface node's

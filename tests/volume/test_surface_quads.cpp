@@ -1,13 +1,16 @@
 // Surface quads that the Delaunay triangulation splits along the other
 // diagonal and that cannot be re-triangulated onto the surface's: the
 // surface takes the Delaunay diagonal instead (flip_surface_quads), where
-// that keeps it a 2-manifold with its patches and without a fold. Then on a
+// that keeps it a 2-manifold with its patches and without a fold. A flat tet
+// of four surface points capping the surface is taken out of the mesh
+// (peel_surface_caps), its lower faces the boundary. Then on a
 // phantom where such a quad occurs, and one where a surface triangle is not
 // a Delaunay facet but the other split of its quad is, the whole pipeline:
 // no retry, and the mesh boundary is the surface the run reports.
 
 #include "core/adjacency.h"
 #include "core/surface_mesh.h"
+#include "core/tet_mesh.h"
 #include "pipeline/case_config.h"
 #include "pipeline/pipeline.h"
 #include "volume/improve.h"
@@ -88,6 +91,82 @@ TEST(SurfaceQuads, NoFlipThatFoldsTheSurface)
     const SurfaceMesh ridge = quad({{0, 0, 0}, {1, 0, 1}, {1, 1, 0}, {0, 1, 1}});
     triangles = ridge.triangles;
     EXPECT_EQ(flip_surface_quads(ridge, kQuads, kQuadTriangles, {0}, triangles), std::vector<int32_t>{0});
+}
+
+// A diamond of three tets: the flat cap (a, b, c, d), whose upper edge
+// (b, d) lies `lift` above (a, c), on two tets down to e. The cap's upper
+// faces are on the boundary, its lower ones shared with the two tets below.
+TetMesh diamond(double lift)
+{
+    TetMesh mesh;
+    mesh.points = {{0, 0, 0}, {1, 0, lift}, {1, 1, 0}, {0, 1, lift}, {0.5, 0.5, -1}};
+    for (Tet t : {Tet{0, 1, 2, 3}, Tet{0, 1, 2, 4}, Tet{0, 2, 3, 4}}) {
+        const auto& p = mesh.points;
+        if (tet_volume6(p[t[0]], p[t[1]], p[t[2]], p[t[3]]) < 0) std::swap(t[2], t[3]);
+        mesh.tets.push_back(t);
+    }
+    // The faces with one tet, counter-clockwise seen from outside.
+    std::map<Triangle, std::pair<Triangle, int>> faces;
+    for (const Tet& t : mesh.tets)
+        for (const Triangle& f : {Triangle{t[1], t[2], t[3]}, Triangle{t[0], t[3], t[2]}, Triangle{t[0], t[1], t[3]},
+                                  Triangle{t[0], t[2], t[1]}}) {
+            Triangle key = f;
+            std::sort(key.begin(), key.end());
+            auto [it, fresh] = faces.emplace(key, std::make_pair(f, 0));
+            ++it->second.second;
+        }
+    for (const auto& [key, face] : faces)
+        if (face.second == 1) mesh.boundary_faces.push_back(face.first);
+    mesh.boundary_patch.assign(mesh.boundary_faces.size(), 0);
+    return mesh;
+}
+
+bool has_face(const TetMesh& mesh, Triangle f)
+{
+    std::sort(f.begin(), f.end());
+    return std::any_of(mesh.boundary_faces.begin(), mesh.boundary_faces.end(), [&](Triangle g) {
+        std::sort(g.begin(), g.end());
+        return g == f;
+    });
+}
+
+TEST(SurfaceCaps, AFlatCapIsTakenOutAndItsLowerFacesBecomeTheBoundary)
+{
+    TetMesh mesh = diamond(0.02);
+    ASSERT_EQ(mesh.boundary_faces.size(), 6u);
+    ASSERT_TRUE(has_face(mesh, {0, 1, 3}) && has_face(mesh, {1, 2, 3}));
+    const double before = tet_mesh_facts(mesh).volume;
+    EXPECT_EQ(peel_surface_caps(mesh, 5, 0.15), 1);
+    EXPECT_EQ(mesh.tets.size(), 2u);
+    ASSERT_EQ(mesh.boundary_faces.size(), 6u);
+    EXPECT_TRUE(has_face(mesh, {0, 1, 2}) && has_face(mesh, {0, 2, 3})) << "the diagonal is (a, c) now";
+    EXPECT_FALSE(has_face(mesh, {0, 1, 3}) || has_face(mesh, {1, 2, 3}));
+    const TetMeshFacts facts = tet_mesh_facts(mesh);
+    EXPECT_TRUE(facts.boundary_matches) << "new faces oriented outwards";
+    EXPECT_EQ(facts.nonpositive_tets, 0);
+    EXPECT_NEAR(before - facts.volume, 0.02 / 3, 1e-12) << "the cap's volume, 2 lift / 6";
+}
+
+TEST(SurfaceCaps, NoPeelOfAWellShapedTetAcrossPatchesOrWithInteriorPoints)
+{
+    // Well shaped: above the threshold.
+    TetMesh mesh = diamond(0.5);
+    EXPECT_EQ(peel_surface_caps(mesh, 5, 0.15), 0);
+    EXPECT_EQ(mesh.tets.size(), 3u);
+
+    // The two upper faces in different patches.
+    mesh = diamond(0.02);
+    for (size_t f = 0; f < mesh.boundary_faces.size(); ++f)
+        if (Triangle g = mesh.boundary_faces[f]; std::sort(g.begin(), g.end()), g == Triangle{1, 2, 3})
+            mesh.boundary_patch[f] = 1;
+    EXPECT_EQ(peel_surface_caps(mesh, 5, 0.15), 0);
+
+    // Interior points are never peeled: e as an interior point makes no
+    // difference to the cap, (a, b, c, d) as interior points do.
+    mesh = diamond(0.02);
+    EXPECT_EQ(peel_surface_caps(mesh, 4, 0.15), 1);
+    mesh = diamond(0.02);
+    EXPECT_EQ(peel_surface_caps(mesh, 3, 0.15), 0);
 }
 
 // Two phantoms where the flips occur, measured with `scalemesh -v run`: the
