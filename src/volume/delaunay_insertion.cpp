@@ -196,8 +196,10 @@ private:
     // (a, b, d) and (b, c, d), as facets: then a flip of the surface edge
     // (a, c) to (b, d) makes the surface conform there, where refining the
     // surface around it, remeshing and building the volume again would
-    // otherwise be needed. Made where surface_flip_allowed. Returns the
-    // number of flips.
+    // otherwise be needed. More generally a flip is made wherever it gives
+    // the pair more facets than it had (a fan of such triangles around one
+    // node takes a few in turn), the one of a triangle's three edges that
+    // gains most, where surface_flip_allowed. Returns the number of flips.
     int64_t flip_to_facets()
     {
         std::vector<int32_t> missing;
@@ -213,22 +215,35 @@ private:
                 triangle_of[directed(u, v)] = static_cast<int32_t>(t);
                 edges.insert(std::minmax(u, v));
             }
+        // Each flip makes more of the pair facets than were before, so the
+        // passes end. A pair whose flip makes both facets from none is a
+        // quad, left to find_quads (its stand-ins keep the surface's own
+        // diagonal where the repair succeeds).
         int64_t flips = 0;
-        std::vector<char> flipped(triangles_.size(), 0); // each triangle is flipped once at most
-        for (int32_t t : missing) {
-            if (flipped[t]) continue;
-            for (int e = 0; e < 3; ++e) {
+        for (bool again = true; again;) {
+            again = false;
+            for (int32_t t : missing) {
+                if (is_facet(triangles_[t])) continue;
+                int best = -1, best_gain = 0, best_o = -1, best_d = -1;
+                for (int e = 0; e < 3; ++e) {
+                    const Triangle& tri = triangles_[t];
+                    const int32_t a = tri[(e + 2) % 3], b = tri[e], c = tri[(e + 1) % 3];
+                    const auto it = triangle_of.find(directed(a, c));
+                    if (it == triangle_of.end()) continue;
+                    const int32_t o = it->second;
+                    int32_t d = -1;
+                    for (int32_t v : triangles_[o])
+                        if (v != a && v != c) d = v;
+                    const int before = is_facet(triangles_[o]);
+                    const int after = int(is_facet({a, b, d})) + int(is_facet({b, c, d}));
+                    if ((before == 0 && after == 2) || after - before <= best_gain ||
+                        !surface_flip_allowed(surface_, {a, b, c, d}, {t, o}, edges))
+                        continue;
+                    best = e, best_gain = after - before, best_o = o, best_d = d;
+                }
+                if (best < 0) continue;
                 const Triangle tri = triangles_[t];
-                const int32_t a = tri[(e + 2) % 3], b = tri[e], c = tri[(e + 1) % 3];
-                const auto it = triangle_of.find(directed(a, c));
-                if (it == triangle_of.end()) continue;
-                const int32_t o = it->second;
-                int32_t d = -1;
-                for (int32_t v : triangles_[o])
-                    if (v != a && v != c) d = v;
-                if (flipped[o] || !is_facet(triangles_[o]) || !is_facet({a, b, d}) || !is_facet({b, c, d}) ||
-                    !surface_flip_allowed(surface_, {a, b, c, d}, {t, o}, edges))
-                    continue;
+                const int32_t a = tri[(best + 2) % 3], b = tri[best], c = tri[(best + 1) % 3], o = best_o, d = best_d;
                 triangles_[t] = {a, b, d};
                 triangles_[o] = {b, c, d};
                 for (const auto& [u, v] : {std::pair{a, c}, std::pair{c, a}}) triangle_of.erase(directed(u, v));
@@ -236,9 +251,8 @@ private:
                 triangle_of[directed(b, c)] = o, triangle_of[directed(c, d)] = o, triangle_of[directed(d, b)] = o;
                 edges.erase(std::minmax(a, c));
                 edges.insert(std::minmax(b, d));
-                flipped[t] = flipped[o] = 1;
                 ++flips;
-                break;
+                again = true;
             }
         }
         return flips;

@@ -173,8 +173,11 @@ TEST(SurfaceCaps, NoPeelOfAWellShapedTetAcrossPatchesOrWithInteriorPoints)
 // pretzel at 96 voxels across a 28 mm box has a quad the repair cannot
 // re-triangulate ("5: 4 re-triangulated, 1 diagonals flipped"), the
 // bifurcation at 88 a triangle that is not a Delaunay facet while the other
-// split of its quad is ("1 other surface edges flipped"). The first used to
-// cost the volume stage twice more and then a remesh, the second a remesh.
+// split of its quad is ("1 other surface edges flipped"), the bifurcation at
+// 80 a fan of three triangles around one node that are not facets, settled
+// by two flips in turn ("2 other surface edges flipped"). The first used to
+// cost the volume stage twice more and then a remesh, the others a remesh
+// each (two at 80).
 struct FlipCase {
     std::string shape;
     int box;
@@ -216,7 +219,8 @@ TEST_P(SurfaceFlipPhantom, FlipsWithoutARetryAndTheMeshBoundaryIsTheSurface)
 }
 
 INSTANTIATE_TEST_SUITE_P(Phantoms, SurfaceFlipPhantom,
-                         ::testing::Values(FlipCase{"pretzel", 96, true}, FlipCase{"bifurcation", 88, false}));
+                         ::testing::Values(FlipCase{"pretzel", 96, true}, FlipCase{"bifurcation", 88, false},
+                                           FlipCase{"bifurcation", 80, false}));
 
 } // namespace
 } // namespace scalemesh
