@@ -596,7 +596,7 @@ int64_t peel_surface_caps(TetMesh& mesh, int32_t surface_points, double threshol
 {
     const std::vector<Vec3>& p = mesh.points;
     std::vector<size_t> caps;
-    std::vector<char> involved(surface_points, 0);
+    std::vector<char> involved(mesh.points.size(), 0); // boundary faces may hold any point
     for (size_t t = 0; t < mesh.tets.size(); ++t) {
         const Tet& tet = mesh.tets[t];
         if (*std::max_element(tet.begin(), tet.end()) >= surface_points ||
