@@ -586,7 +586,7 @@ private:
 
     std::unordered_set<uint64_t> protected_edges_;
     const SurfaceMesh& surface_;
-    std::vector<Triangle> triangles_; // triangles_ with the flips of flip_to_facets
+    std::vector<Triangle> triangles_; // surface_.triangles with the flips of flip_to_facets
     const std::vector<OffsetPoint>& points_;
     const InsertionParams& params_;
     const int32_t n_;
