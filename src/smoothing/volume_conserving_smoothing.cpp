@@ -3,8 +3,13 @@
 #include "core/adjacency.h"
 #include "core/errors.h"
 
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <string>
 
 namespace scalemesh {
@@ -46,18 +51,86 @@ public:
         : mesh_(mesh), fans_(vertex_triangles(mesh)), neighbours_(vertex_neighbours(mesh)), constraint_(constraint),
           start_(max_displacement > 0 ? mesh.points : std::vector<Vec3>{}), reach2_(max_displacement * max_displacement)
     {
+        plan_sweep();
     }
 
+    // One sweep: the colours in turn; within a colour the cells in parallel,
+    // each cell's nodes in index order (see plan_sweep).
     void sweep(double omega)
     {
+        for (size_t colour = 0; colour + 1 < colour_begin_.size(); ++colour)
+            tbb::parallel_for(tbb::blocked_range<size_t>(colour_begin_[colour], colour_begin_[colour + 1], 1),
+                              [&](const tbb::blocked_range<size_t>& cells) {
+                                  for (size_t c = cells.begin(); c != cells.end(); ++c)
+                                      for (size_t k = cell_begin_[c]; k != cell_begin_[c + 1]; ++k)
+                                          relax(order_[k], omega);
+                              });
+    }
+
+    // The order of a sweep. Relaxing node i reads the points within two
+    // edges of i (its neighbours' means and fans) and writes i and one
+    // neighbour, so two nodes more than three edges apart can be relaxed at
+    // the same time, and in either order with the same result. A path of
+    // three edges is at most 3 l long, l the longest edge now (connectivity
+    // never changes, so this holds for the whole smoothing), so the nodes are
+    // put in cubic cells of side h > 3 l and the cells get one of eight
+    // colours by the parity of their three grid indices: two cells of one
+    // colour have a whole cell between them along some axis, so their nodes
+    // are more than 3 l, hence more than three edges, apart. A sweep then
+    // takes the colours in turn and the cells of a colour in parallel, each
+    // cell's nodes in index order: the same as a sequential Gauss-Seidel
+    // sweep in that order, bit for bit, whatever the number of threads.
+    void plan_sweep()
+    {
         const auto n = static_cast<int32_t>(mesh_.points.size());
-        for (int32_t i = 0; i < n; ++i) {
-            if (neighbours_.size(i) == 0 || is_fixed(i)) continue;
-            const Vec3 move = omega * (neighbour_mean(i) - mesh_.points[i]);
-            const Vec3 N = volume_gradient(i);
-            if (is_free(i) && relax_pair(i, move, N, omega)) continue;
-            mesh_.points[i] += within_reach(i, conserving_part(move, N, plane_normal(i)));
+        double longest2 = 0;
+        for (const Triangle& t : mesh_.triangles)
+            for (int e = 0; e < 3; ++e)
+                longest2 = std::max(longest2, norm2(mesh_.points[t[e]] - mesh_.points[t[(e + 1) % 3]]));
+        Vec3 lo, hi;
+        bounding_box(mesh_, lo, hi);
+        const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+        // 0.1% over 3 l absorbs the rounding of the cell indices; at most
+        // 2^20 cells per axis keeps a cell's key in 64 bits.
+        double h = std::max(3.003 * std::sqrt(longest2), extent / double(kMaxCells - 2));
+        if (!(h > 0) || !std::isfinite(h)) h = std::numeric_limits<double>::max(); // one cell
+        auto index = [&](double x, double x0) {
+            return std::min<uint64_t>(kMaxCells - 1, static_cast<uint64_t>(std::max(0.0, std::floor((x - x0) / h))));
+        };
+        std::vector<std::pair<uint64_t, int32_t>> keyed(n);
+        tbb::parallel_for(tbb::blocked_range<int32_t>(0, n, 4096), [&](const tbb::blocked_range<int32_t>& range) {
+            for (int32_t i = range.begin(); i != range.end(); ++i) {
+                const Vec3& p = mesh_.points[i];
+                const uint64_t cx = index(p.x, lo.x), cy = index(p.y, lo.y), cz = index(p.z, lo.z);
+                const uint64_t colour = (cx & 1) | (cy & 1) << 1 | (cz & 1) << 2;
+                keyed[i] = {colour << 60 | cx << 40 | cy << 20 | cz, i};
+            }
+        });
+        tbb::parallel_sort(keyed.begin(), keyed.end());
+        order_.resize(n);
+        cell_begin_.clear();
+        colour_begin_.assign(9, 0);
+        for (int32_t k = 0; k < n; ++k) {
+            order_[k] = keyed[k].second;
+            if (k == 0 || keyed[k].first != keyed[k - 1].first) cell_begin_.push_back(k);
         }
+        cell_begin_.push_back(n);
+        // colour_begin_[c]: the first cell of colour c or above.
+        size_t cell = 0;
+        for (uint64_t colour = 0; colour < 8; ++colour) {
+            while (cell + 1 < cell_begin_.size() && (keyed[cell_begin_[cell]].first >> 60) < colour) ++cell;
+            colour_begin_[colour] = cell;
+        }
+        colour_begin_[8] = cell_begin_.size() - 1;
+    }
+
+    void relax(int32_t i, double omega)
+    {
+        if (neighbours_.size(i) == 0 || is_fixed(i)) return;
+        const Vec3 move = omega * (neighbour_mean(i) - mesh_.points[i]);
+        const Vec3 N = volume_gradient(i);
+        if (is_free(i) && relax_pair(i, move, N, omega)) return;
+        mesh_.points[i] += within_reach(i, conserving_part(move, N, plane_normal(i)));
     }
 
 private:
@@ -187,6 +260,10 @@ private:
     const SmoothingConstraint* constraint_;
     std::vector<Vec3> start_; // starting positions, kept only when the reach is bounded
     double reach2_;
+    static constexpr uint64_t kMaxCells = uint64_t(1) << 20; // per axis
+    std::vector<int32_t> order_;      // the nodes, cell by cell
+    std::vector<size_t> cell_begin_;  // cell c holds order_[cell_begin_[c], cell_begin_[c + 1])
+    std::vector<size_t> colour_begin_; // colour c holds cells [colour_begin_[c], colour_begin_[c + 1])
 };
 
 } // namespace

@@ -34,8 +34,14 @@ struct SmoothingConstraint {
                                      // plane through it with this normal (any length)
 };
 
-// Smooths `mesh` in place. Each sweep visits the nodes in index order
-// (Gauss-Seidel, later nodes see earlier moves). The Laplacian move of node i
+// Smooths `mesh` in place. Each sweep is a Gauss-Seidel sweep (later nodes
+// see earlier moves) in a fixed order: the nodes are put in a grid of cubic
+// cells of side just over three times the longest edge, the cells coloured by
+// the parity of their grid indices (eight colours), and a sweep takes the
+// colours in turn, the cells of one colour in parallel and each cell's nodes
+// in index order. Nodes in different cells of one colour are more than three
+// edges apart, while a move reads only within two edges and writes within
+// one, so the parallel sweep equals the sequential one in that order. The Laplacian move of node i
 // is omega * (mean of its edge neighbours - x_i). A free node is relaxed with
 // a free partner as above; otherwise its move has the component along N_i
 // removed. With a plane constraint the move is also kept in the plane: it is
@@ -52,7 +58,8 @@ struct SmoothingConstraint {
 // Guarantees: the signed volume (surface_facts) is conserved to round-off,
 // fixed nodes keep their bit-exact positions, plane-constrained nodes stay in
 // their plane to round-off, connectivity is untouched, and the result is a
-// deterministic function of the input (bit-identical on every run).
+// deterministic function of the input (bit-identical on every run and on any
+// number of threads).
 //
 // Throws InputError when the mesh is not a closed, oriented 2-manifold, when
 // sweeps < 0, omega is outside (0, 1], max_displacement is negative or not

@@ -5,6 +5,7 @@
 #include "sizing/test_meshes.h"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <algorithm>
 #include <cmath>
@@ -225,6 +226,32 @@ TEST(Smoothing, Deterministic)
     smooth_volume_conserving(b, {10, 1.0});
     ASSERT_EQ(a.points.size(), b.points.size());
     for (size_t i = 0; i < a.points.size(); ++i) ASSERT_EQ(a.points[i], b.points[i]) << "node " << i;
+}
+
+// The sweeps run cells of one colour in parallel; the nodes they touch are
+// more than three edges apart, so the result is the one of a single thread,
+// bit for bit. Several two-thread runs, since a race shows only sometimes.
+TEST(Smoothing, TwoThreadsGiveTheOneThreadResultBitForBit)
+{
+    const SurfaceMesh input = [] {
+        SurfaceMesh mesh = test::uv_torus(10.0, 3.0, 384, 128);
+        test::add_noise(mesh, 0.04);
+        return mesh;
+    }();
+    SurfaceMesh one = input;
+    {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+        smooth_volume_conserving(one, {10, 1.0});
+    }
+    for (int run = 0; run < 4; ++run) {
+        SurfaceMesh two = input;
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
+        smooth_volume_conserving(two, {10, 1.0});
+        for (size_t i = 0; i < one.points.size(); ++i)
+            ASSERT_EQ(one.points[i], two.points[i]) << "node " << i << ", run " << run;
+    }
+    EXPECT_LT(relative_volume_change(input, one), 1e-10);
+    EXPECT_GT(max_displacement(input, one), 0.01);
 }
 
 TEST(Smoothing, ZeroSweepsIsIdentity)
