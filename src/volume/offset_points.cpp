@@ -2,10 +2,15 @@
 
 #include "core/errors.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numeric>
-#include <unordered_map>
 
 namespace scalemesh {
 
@@ -40,13 +45,13 @@ std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const Feature
     if (!(params.filter_fraction >= 0)) throw InputError("volume: filter_fraction must be >= 0", "use 0.2");
     const std::vector<double> lambda = layer_fractions(params.M, params.growth);
 
-    std::vector<OffsetPoint> points;
-    points.reserve(n * (lambda.size() + 2));
-    for (size_t i = 0; i < n; ++i) {
-        if (!sizing.inward_ok.empty() && !sizing.inward_ok[i]) continue;
+    // Node i's points, passed one by one to `emit`; the count pass and the
+    // fill pass walk the same steps, so each node's points land in its own
+    // slice of the output and the order does not depend on the threads.
+    auto walk = [&](size_t i, auto&& emit) {
+        if (!sizing.inward_ok.empty() && !sizing.inward_ok[i]) return;
         const double d = sizing.d[i], D = sizing.D[i];
-        if (!(d > 0) || !(D > 0)) continue;
-        const Vec3 inward = -normalized(sizing.normals[i]);
+        if (!(d > 0) || !(D > 0)) return;
         const double filler_step = std::min(D, params.L_max) / params.M;
         double dist = 0;
         for (int m = 1;; ++m) {
@@ -54,9 +59,24 @@ std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const Feature
             const double step = filler ? filler_step : lambda[m - 1] * d;
             dist += step;
             if (!(dist <= D / 2) || !(step > 0)) break;
-            points.push_back({surface.points[i] + dist * inward, static_cast<int32_t>(i), m, filler, dist, step});
+            emit(m, filler, dist, step);
         }
-    }
+    };
+    std::vector<size_t> first(n + 1, 0);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t i = range.begin(); i != range.end(); ++i) walk(i, [&](int, bool, double, double) { ++first[i + 1]; });
+    });
+    std::partial_sum(first.begin(), first.end(), first.begin());
+    std::vector<OffsetPoint> points(first[n]);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t i = range.begin(); i != range.end(); ++i) {
+            const Vec3 inward = -normalized(sizing.normals[i]);
+            size_t k = first[i];
+            walk(i, [&](int m, bool filler, double dist, double step) {
+                points[k++] = {surface.points[i] + dist * inward, static_cast<int32_t>(i), m, filler, dist, step};
+            });
+        }
+    });
     return points;
 }
 
@@ -71,44 +91,104 @@ std::vector<OffsetPoint> filter_interior_points(const std::vector<OffsetPoint>& 
     for (const OffsetPoint& p : points) cell = std::max(cell, radius(p.generator, p.generator));
     if (!(cell > 0)) return points;
 
-    auto key = [&](const Vec3& x, int dx, int dy, int dz) {
-        const int64_t i = static_cast<int64_t>(std::floor(x.x / cell)) + dx;
-        const int64_t j = static_cast<int64_t>(std::floor(x.y / cell)) + dy;
-        const int64_t k = static_cast<int64_t>(std::floor(x.z / cell)) + dz;
-        return static_cast<uint64_t>(i * 73856093) ^ static_cast<uint64_t>(j * 19349663) ^
-               static_cast<uint64_t>(k * 83492791);
+    // Grid cells of side `cell` (no radius is larger; larger still where
+    // the box would need more than 2^20 cells along an axis), packed as
+    // (x, y, z) indices of 21 bits each, from 1 so that a neighbour's index
+    // is never negative. Sorted by key, the three cells of a column
+    // (x, y, z - 1 .. z + 1) are one run, and walking the points in key
+    // order moves the start of each of the nine neighbouring columns
+    // forward only: the search reads the sorted array in nine streams
+    // instead of looking up 27 cells per point.
+    const size_t n = points.size();
+    Vec3 lo = points[0].position, hi = lo;
+    for (const OffsetPoint& p : points) {
+        lo = {std::min(lo.x, p.position.x), std::min(lo.y, p.position.y), std::min(lo.z, p.position.z)};
+        hi = {std::max(hi.x, p.position.x), std::max(hi.y, p.position.y), std::max(hi.z, p.position.z)};
+    }
+    constexpr double kMaxCells = double(1 << 20);
+    cell = std::max({cell, (hi.x - lo.x) / kMaxCells, (hi.y - lo.y) / kMaxCells, (hi.z - lo.z) / kMaxCells});
+    auto index = [&](double x, double x0) {
+        return 1 + static_cast<uint64_t>(std::min(kMaxCells, std::max(0.0, std::floor((x - x0) / cell))));
     };
+    auto pack = [](uint64_t i, uint64_t j, uint64_t k) { return i << 42 | j << 21 | k; };
+    std::vector<std::pair<uint64_t, uint32_t>> by_cell(n);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t i = range.begin(); i != range.end(); ++i) {
+            const Vec3& x = points[i].position;
+            by_cell[i] = {pack(index(x.x, lo.x), index(x.y, lo.y), index(x.z, lo.z)), static_cast<uint32_t>(i)};
+        }
+    });
+    tbb::parallel_sort(by_cell.begin(), by_cell.end());
 
-    std::vector<size_t> order(points.size());
-    std::iota(order.begin(), order.end(), size_t(0));
-    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return points[a].dist < points[b].dist; });
-
-    std::unordered_multimap<uint64_t, size_t> grid;
-    grid.reserve(points.size());
-    std::vector<char> keep(points.size(), 0);
-    for (size_t idx : order) {
-        const OffsetPoint& p = points[idx];
-        bool clash = false;
-        for (int dx = -1; dx <= 1 && !clash; ++dx)
-            for (int dy = -1; dy <= 1 && !clash; ++dy)
-                for (int dz = -1; dz <= 1 && !clash; ++dz) {
-                    auto range = grid.equal_range(key(p.position, dx, dy, dz));
-                    for (auto it = range.first; it != range.second; ++it) {
-                        const OffsetPoint& q = points[it->second];
-                        if (q.generator == p.generator) continue;
-                        if (distance(p.position, q.position) < radius(p.generator, q.generator)) {
-                            clash = true;
-                            break;
-                        }
-                    }
+    // The clashes: pairs of points from different generators closer than
+    // their radius, found for every point at once (the relation is
+    // symmetric). Only a few percent of the points have any.
+    constexpr uint64_t kField = (uint64_t(1) << 21) - 1;
+    auto first_at_or_after = [&](uint64_t key) {
+        return static_cast<size_t>(
+            std::lower_bound(by_cell.begin(), by_cell.end(), std::make_pair(key, uint32_t(0))) - by_cell.begin());
+    };
+    tbb::enumerable_thread_specific<std::vector<std::pair<uint32_t, uint32_t>>> found;
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& range) {
+        auto& local = found.local();
+        std::array<size_t, 9> cursor{};
+        for (size_t s = range.begin(); s != range.end(); ++s) {
+            const uint64_t key = by_cell[s].first;
+            const uint64_t i = key >> 42, j = (key >> 21) & kField, k = key & kField;
+            const uint32_t a = by_cell[s].second;
+            const OffsetPoint& p = points[a];
+            for (int c = 0; c < 9; ++c) {
+                const uint64_t column = pack(i + c / 3 - 1, j + c % 3 - 1, 0);
+                const uint64_t from = column | (k - 1), to = column | (k + 1);
+                size_t& at = cursor[c];
+                if (s == range.begin()) at = first_at_or_after(from);
+                while (at < n && by_cell[at].first < from) ++at;
+                for (size_t t = at; t < n && by_cell[t].first <= to; ++t) {
+                    const uint32_t b = by_cell[t].second;
+                    const OffsetPoint& q = points[b];
+                    if (q.generator != p.generator && distance(p.position, q.position) < radius(p.generator, q.generator))
+                        local.emplace_back(a, b);
                 }
-        if (clash) continue;
-        keep[idx] = 1;
-        grid.emplace(key(p.position, 0, 0, 0), idx);
+            }
+        }
+    });
+    std::vector<std::pair<uint32_t, uint32_t>> clashes;
+    for (const auto& local : found) clashes.insert(clashes.end(), local.begin(), local.end());
+    tbb::parallel_sort(clashes.begin(), clashes.end());
+
+    // The greedy pass of section 4 in order of distance to the generator
+    // (ties: the earlier point): a point is dropped when a kept point before
+    // it clashes with it. A point without clashes is always kept, so only
+    // the points with clashes are walked, and a clash partner before a
+    // point has clashes itself, so its verdict is known by then.
+    auto before = [&](uint32_t a, uint32_t b) {
+        return points[a].dist < points[b].dist || (points[a].dist == points[b].dist && a < b);
+    };
+    std::vector<uint32_t> walked;
+    std::vector<size_t> clash_begin{0};
+    for (size_t c = 0; c < clashes.size(); ++c) {
+        if (c > 0 && clashes[c].first != clashes[c - 1].first) clash_begin.push_back(c);
+        if (c == 0 || clashes[c].first != clashes[c - 1].first) walked.push_back(clashes[c].first);
+    }
+    clash_begin.push_back(clashes.size());
+    if (walked.empty()) clash_begin = {0};
+    std::vector<uint32_t> order(walked.size());
+    std::iota(order.begin(), order.end(), 0u);
+    std::sort(order.begin(), order.end(), [&](uint32_t u, uint32_t v) { return before(walked[u], walked[v]); });
+    std::vector<char> keep(n, 1);
+    for (uint32_t w : order) {
+        const uint32_t a = walked[w];
+        for (size_t c = clash_begin[w]; c != clash_begin[w + 1]; ++c) {
+            const uint32_t b = clashes[c].second;
+            if (keep[b] && before(b, a)) {
+                keep[a] = 0;
+                break;
+            }
+        }
     }
     std::vector<OffsetPoint> kept;
-    kept.reserve(points.size());
-    for (size_t i = 0; i < points.size(); ++i)
+    kept.reserve(n);
+    for (size_t i = 0; i < n; ++i)
         if (keep[i]) kept.push_back(points[i]);
     return kept;
 }

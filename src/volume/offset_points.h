@@ -40,7 +40,8 @@ std::vector<double> layer_fractions(double M, double growth);
 // every min(D_i, L_max) / M, all while dist <= D_i / 2. A node whose inward
 // check failed (sizing.inward_ok[i] == 0) or with d_i <= 0 gets no points:
 // its normal cannot be trusted to point into the volume. Points are ordered
-// by node, then by layer. Throws InputError when the sizing fields do not
+// by node, then by layer (the nodes are processed in parallel, each into its
+// own slice). Throws InputError when the sizing fields do not
 // match the surface or a parameter is out of range.
 std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const FeatureSize& sizing,
                                        const OffsetParams& params);
@@ -48,8 +49,11 @@ std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const Feature
 // Section 4's interior-point filter: of two points from different generators
 // closer than filter_fraction * min(d_a, d_b) / M, the one farther from its
 // generator is dropped (ties: the later one). Greedy in order of distance to
-// the generator, with a uniform grid hash (expected linear time). Returns the
-// kept points in their input order.
+// the generator: a point goes when a point kept before it is that close. The
+// close pairs are found first, in parallel, over the points sorted by the
+// cell of a uniform grid (linear after the sort); the greedy pass then walks
+// only the points that have one. Returns the kept points in their input order; the result does
+// not depend on the number of threads.
 std::vector<OffsetPoint> filter_interior_points(const std::vector<OffsetPoint>& points, const FeatureSize& sizing,
                                                 const OffsetParams& params);
 

@@ -1,0 +1,142 @@
+#include "volume/offset_points.h"
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <random>
+
+namespace scalemesh {
+namespace {
+
+// Three nodes on the plane z = 0 with inward direction +z (outward normal -z).
+struct Plane {
+    SurfaceMesh surface;
+    FeatureSize sizing;
+};
+
+Plane three_nodes()
+{
+    Plane p;
+    p.surface.points = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}};
+    p.sizing.d = {1.4, 1.4, 1.4};
+    p.sizing.D = {1.4, 4.0, 4.0};
+    p.sizing.normals = {{0, 0, -1}, {0, 0, -1}, {0, 0, -1}};
+    p.sizing.inward_ok = {1, 1, 0};
+    return p;
+}
+
+TEST(OffsetPoints, LayersAtLambdaDThenFillersUpToHalfD)
+{
+    const Plane p = three_nodes();
+    OffsetParams params;
+    params.M = 7;
+    params.L_max = 2.1;
+    const std::vector<OffsetPoint> points = offset_points(p.surface, p.sizing, params);
+
+    // Node 0 (D = d): three layermaking points at 0.2, 0.4, 0.6 (D / 2 = 0.7).
+    // Node 1: the same three, then fillers every min(D, L_max) / M = 0.3 up
+    // to D / 2 = 2: 0.9, 1.2, 1.5, 1.8. Node 2: its inward check failed.
+    const std::vector<std::pair<int, double>> expected = {{0, 0.2}, {0, 0.4}, {0, 0.6}, {1, 0.2}, {1, 0.4},
+                                                          {1, 0.6}, {1, 0.9}, {1, 1.2}, {1, 1.5}, {1, 1.8}};
+    ASSERT_EQ(points.size(), expected.size());
+    for (size_t k = 0; k < points.size(); ++k) {
+        const OffsetPoint& q = points[k];
+        EXPECT_EQ(q.generator, expected[k].first) << k;
+        EXPECT_NEAR(q.dist, expected[k].second, 1e-12) << k;
+        EXPECT_NEAR(q.position.z, expected[k].second, 1e-12) << k;
+        EXPECT_EQ(q.position.x, p.surface.points[q.generator].x) << k;
+        const int m = static_cast<int>(k < 3 ? k + 1 : k - 2);
+        EXPECT_EQ(q.layer, m) << k;
+        EXPECT_EQ(q.filler, m > 3) << k;
+        EXPECT_NEAR(q.spacing, m > 3 ? 0.3 : 0.2, 1e-12) << k;
+    }
+}
+
+// Section 4's rule written out over all pairs: in order of distance to the
+// generator (ties: index), a point is dropped when a kept point before it
+// from another generator is closer than filter_fraction min(d_a, d_b) / M.
+std::vector<size_t> greedy_by_all_pairs(const std::vector<OffsetPoint>& points, const FeatureSize& sizing,
+                                        const OffsetParams& params)
+{
+    std::vector<size_t> order(points.size());
+    std::iota(order.begin(), order.end(), size_t(0));
+    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return points[a].dist < points[b].dist; });
+    std::vector<char> keep(points.size(), 0);
+    std::vector<size_t> kept_so_far;
+    for (size_t a : order) {
+        bool clash = false;
+        for (size_t b : kept_so_far) {
+            const double r =
+                params.filter_fraction * std::min(sizing.d[points[a].generator], sizing.d[points[b].generator]) / params.M;
+            if (points[a].generator != points[b].generator && distance(points[a].position, points[b].position) < r) {
+                clash = true;
+                break;
+            }
+        }
+        if (clash) continue;
+        keep[a] = 1;
+        kept_so_far.push_back(a);
+    }
+    std::vector<size_t> kept;
+    for (size_t i = 0; i < points.size(); ++i)
+        if (keep[i]) kept.push_back(i);
+    return kept;
+}
+
+TEST(FilterInteriorPoints, KeepsWhatTheGreedyRuleOverAllPairsKeepsOnAnyThreadCount)
+{
+    // 3000 points of 150 generators in a 0.3 mm cube, radius 0.1 d / 7 with d
+    // in [0.5, 1.5]: dense enough that many points clash. Distances are
+    // rounded to 0.01 so that ties occur.
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> unit(0, 1);
+    FeatureSize sizing;
+    for (int g = 0; g < 150; ++g) sizing.d.push_back(0.5 + unit(rng));
+    std::vector<OffsetPoint> points;
+    for (int k = 0; k < 3000; ++k) {
+        OffsetPoint q;
+        q.position = {0.3 * unit(rng), 0.3 * unit(rng), 0.3 * unit(rng)};
+        q.generator = static_cast<int32_t>(rng() % 150);
+        q.layer = 1 + static_cast<int32_t>(rng() % 5);
+        q.filler = q.layer > 3;
+        q.dist = std::round(100 * unit(rng)) / 100;
+        q.spacing = 0.1;
+        points.push_back(q);
+    }
+    OffsetParams params;
+    params.M = 7;
+    params.L_max = 1;
+    params.filter_fraction = 0.1;
+
+    const std::vector<size_t> expected = greedy_by_all_pairs(points, sizing, params);
+    ASSERT_GT(expected.size(), 100u);
+    ASSERT_LT(expected.size(), points.size() - 100);
+    for (int threads : {1, 2}) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        const std::vector<OffsetPoint> kept = filter_interior_points(points, sizing, params);
+        ASSERT_EQ(kept.size(), expected.size()) << threads << " threads";
+        for (size_t k = 0; k < kept.size(); ++k) {
+            const OffsetPoint& want = points[expected[k]];
+            ASSERT_EQ(kept[k].position, want.position) << k << ", " << threads << " threads";
+            ASSERT_EQ(kept[k].generator, want.generator) << k;
+            ASSERT_EQ(kept[k].dist, want.dist) << k;
+        }
+    }
+}
+
+TEST(FilterInteriorPoints, PointsOfOneGeneratorNeverClash)
+{
+    FeatureSize sizing;
+    sizing.d = {1.0};
+    std::vector<OffsetPoint> points;
+    for (int k = 0; k < 5; ++k) points.push_back({{0, 0, 1e-6 * k}, 0, k + 1, false, 1e-6 * k, 0.1});
+    OffsetParams params;
+    params.L_max = 1;
+    EXPECT_EQ(filter_interior_points(points, sizing, params).size(), points.size());
+}
+
+} // namespace
+} // namespace scalemesh
