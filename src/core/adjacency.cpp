@@ -65,4 +65,13 @@ std::vector<std::array<int32_t, 2>> unique_edges(const SurfaceMesh& mesh)
     return edges;
 }
 
+EdgeSet edge_set(const std::vector<Triangle>& triangles)
+{
+    EdgeSet edges;
+    edges.reserve(triangles.size() * 3 / 2 + 1);
+    for (const Triangle& t : triangles)
+        for (int k = 0; k < 3; ++k) edges.insert(edge_key(t[k], t[(k + 1) % 3]));
+    return edges;
+}
+
 } // namespace scalemesh

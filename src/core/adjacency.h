@@ -3,7 +3,9 @@
 
 #include "core/surface_mesh.h"
 
+#include <algorithm>
 #include <cstdint>
+#include <unordered_set>
 #include <vector>
 
 namespace scalemesh {
@@ -26,5 +28,20 @@ VertexTable vertex_neighbours(const SurfaceMesh& mesh);
 
 // Undirected edges (a < b), sorted, without repeats.
 std::vector<std::array<int32_t, 2>> unique_edges(const SurfaceMesh& mesh);
+
+// The edge u -> v as one key, for hash maps of edges.
+inline uint64_t directed_edge_key(int32_t u, int32_t v)
+{
+    return (static_cast<uint64_t>(static_cast<uint32_t>(u)) << 32) | static_cast<uint32_t>(v);
+}
+
+// The edge {u, v} as one key, whichever way it is given.
+inline uint64_t edge_key(int32_t u, int32_t v) { return directed_edge_key(std::min(u, v), std::max(u, v)); }
+
+// Undirected edges as edge_key values.
+using EdgeSet = std::unordered_set<uint64_t>;
+
+// The edges of `triangles`.
+EdgeSet edge_set(const std::vector<Triangle>& triangles);
 
 } // namespace scalemesh

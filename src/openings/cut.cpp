@@ -1,5 +1,6 @@
 #include "openings/openings.h"
 
+#include "core/adjacency.h"
 #include "core/errors.h"
 #include "openings/plane_triangulation.h"
 
@@ -22,8 +23,6 @@ std::string text(const Vec3& x)
     out << "(" << x.x << ", " << x.y << ", " << x.z << ")";
     return out.str();
 }
-
-uint64_t edge_key(int32_t a, int32_t b) { return (static_cast<uint64_t>(static_cast<uint32_t>(a)) << 32) | static_cast<uint32_t>(b); }
 
 double extent(const SurfaceMesh& mesh)
 {
@@ -107,7 +106,7 @@ public:
         // Split the triangles crossing the plane; the new vertices lie on it.
         std::unordered_map<uint64_t, int32_t> cut_vertex;
         const auto crossing = [&](int32_t a, int32_t b) {
-            const uint64_t key = edge_key(std::min(a, b), std::max(a, b));
+            const uint64_t key = edge_key(a, b);
             if (auto it = cut_vertex.find(key); it != cut_vertex.end()) return it->second;
             const Vec3& pa = mesh_.points[a];
             const Vec3& pb = mesh_.points[b];
@@ -228,14 +227,14 @@ public:
         face_of_edge.reserve(3 * triangles.size());
         for (size_t f = 0; f < triangles.size(); ++f)
             for (int k = 0; k < 3; ++k)
-                face_of_edge.emplace(edge_key(triangles[f][k], triangles[f][(k + 1) % 3]), static_cast<int32_t>(f));
+                face_of_edge.emplace(directed_edge_key(triangles[f][k], triangles[f][(k + 1) % 3]), static_cast<int32_t>(f));
         std::vector<char> removed(triangles.size(), 0);
         std::deque<int32_t> queue;
         for (size_t l = 0; l < loops.size(); ++l) {
             if (!chosen[l]) continue;
             for (size_t k = 0; k < loops[l].size(); ++k) {
                 const int32_t u = loops[l][k], v = loops[l][(k + 1) % loops[l].size()];
-                const auto it = face_of_edge.find(edge_key(v, u));
+                const auto it = face_of_edge.find(directed_edge_key(v, u));
                 if (it == face_of_edge.end() || inside[it->second])
                     throw StageError("openings", who + ": the surface is not a closed manifold at the crossing");
                 if (!removed[it->second]) {
@@ -249,7 +248,7 @@ public:
             queue.pop_front();
             for (int k = 0; k < 3; ++k) {
                 const int32_t a = triangles[f][k], b = triangles[f][(k + 1) % 3];
-                const auto it = face_of_edge.find(edge_key(b, a));
+                const auto it = face_of_edge.find(directed_edge_key(b, a));
                 if (it == face_of_edge.end()) continue;
                 const int32_t g = it->second;
                 if (inside[g]) {

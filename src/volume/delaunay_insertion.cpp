@@ -1,5 +1,6 @@
 #include "volume/delaunay_insertion.h"
 
+#include "core/adjacency.h"
 #include "core/errors.h"
 #include "volume/improve.h"
 
@@ -15,7 +16,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <set>
 #include <unordered_map>
 #include <unordered_set>
 
@@ -207,14 +207,11 @@ private:
             if (!is_facet(triangles_[t])) missing.push_back(static_cast<int32_t>(t));
         if (missing.empty()) return 0;
         std::unordered_map<uint64_t, int32_t> triangle_of; // directed edge -> triangle
-        auto directed = [](int32_t u, int32_t v) { return (uint64_t(uint32_t(u)) << 32) | uint32_t(v); };
-        std::set<std::pair<int32_t, int32_t>> edges;
+        const auto directed = directed_edge_key;
         for (size_t t = 0; t < triangles_.size(); ++t)
-            for (int e = 0; e < 3; ++e) {
-                const int32_t u = triangles_[t][e], v = triangles_[t][(e + 1) % 3];
-                triangle_of[directed(u, v)] = static_cast<int32_t>(t);
-                edges.insert(std::minmax(u, v));
-            }
+            for (int e = 0; e < 3; ++e)
+                triangle_of[directed(triangles_[t][e], triangles_[t][(e + 1) % 3])] = static_cast<int32_t>(t);
+        EdgeSet edges = edge_set(triangles_);
         // Each flip makes more of the pair facets than were before, so the
         // passes end. A pair whose flip makes both facets from none is a
         // quad, left to find_quads (its stand-ins keep the surface's own
@@ -249,8 +246,8 @@ private:
                 for (const auto& [u, v] : {std::pair{a, c}, std::pair{c, a}}) triangle_of.erase(directed(u, v));
                 triangle_of[directed(a, b)] = t, triangle_of[directed(b, d)] = t, triangle_of[directed(d, a)] = t;
                 triangle_of[directed(b, c)] = o, triangle_of[directed(c, d)] = o, triangle_of[directed(d, b)] = o;
-                edges.erase(std::minmax(a, c));
-                edges.insert(std::minmax(b, d));
+                edges.erase(edge_key(a, c));
+                edges.insert(edge_key(b, d));
                 ++flips;
                 again = true;
             }
@@ -275,7 +272,7 @@ private:
                 missing.push_back(static_cast<int32_t>(t));
         }
         std::unordered_map<uint64_t, int32_t> missing_edge; // directed edge -> missing triangle
-        auto directed = [](int32_t u, int32_t v) { return (uint64_t(uint32_t(u)) << 32) | uint32_t(v); };
+        const auto directed = directed_edge_key;
         for (int32_t t : missing)
             for (int e = 0; e < 3; ++e)
                 missing_edge[directed(triangles_[t][e], triangles_[t][(e + 1) % 3])] = t;
@@ -566,12 +563,6 @@ private:
             for (int i = 0; i < 4; ++i)
                 if (stamp_[cc->vertex(i)->info()] != stamp_value_) return Verdict::hidden;
         return Verdict::inserted;
-    }
-
-    static uint64_t edge_key(int32_t u, int32_t v)
-    {
-        if (u > v) std::swap(u, v);
-        return (uint64_t(uint32_t(u)) << 32) | uint32_t(v);
     }
 
     // True when the new tet (facet + new point) contains a protected edge.

@@ -6,7 +6,6 @@
 #include <array>
 #include <cmath>
 #include <map>
-#include <set>
 #include <vector>
 
 namespace scalemesh {
@@ -584,11 +583,11 @@ bool flip_folds_little(const std::vector<Vec3>& points, const Triangle& old1, co
 } // namespace
 
 bool surface_flip_allowed(const SurfaceMesh& surface, const std::array<int32_t, 4>& quad,
-                          const std::array<int32_t, 2>& ids, const std::set<std::pair<int32_t, int32_t>>& edges)
+                          const std::array<int32_t, 2>& ids, const EdgeSet& edges)
 {
     const auto patch = [&](int32_t t) { return surface.triangle_patch.empty() ? 0 : surface.triangle_patch[t]; };
     const auto [a, b, c, d] = quad;
-    if (edges.count(std::minmax(b, d)) || patch(ids[0]) != patch(ids[1])) return false;
+    if (edges.count(edge_key(b, d)) || patch(ids[0]) != patch(ids[1])) return false;
     return flip_folds_little(surface.points, {a, b, c}, {a, c, d}, {a, b, d}, {b, c, d});
 }
 
@@ -613,12 +612,12 @@ int64_t peel_surface_caps(TetMesh& mesh, int32_t surface_points, double threshol
         return f;
     };
     std::map<Triangle, int32_t> face_id;
-    std::set<std::pair<int32_t, int32_t>> edges;
+    EdgeSet edges;
     for (size_t f = 0; f < mesh.boundary_faces.size(); ++f) {
         const Triangle& tri = mesh.boundary_faces[f];
         if (involved[tri[0]] && involved[tri[1]] && involved[tri[2]]) face_id[key(tri)] = static_cast<int32_t>(f);
         for (int i = 0; i < 3; ++i)
-            if (involved[tri[i]] && involved[tri[(i + 1) % 3]]) edges.insert(std::minmax(tri[i], tri[(i + 1) % 3]));
+            if (involved[tri[i]] && involved[tri[(i + 1) % 3]]) edges.insert(edge_key(tri[i], tri[(i + 1) % 3]));
     }
     const auto patch = [&](int32_t f) { return mesh.boundary_patch.empty() ? 0 : mesh.boundary_patch[f]; };
     std::vector<char> peeled(mesh.tets.size(), 0);
@@ -640,7 +639,7 @@ int64_t peel_surface_caps(TetMesh& mesh, int32_t surface_points, double threshol
         // faces opposite k and l, seen from the tets beyond them, replace them.
         const int i = on[0], j = on[1], k = off[0], l = off[1];
         const Triangle new_k{face[k][0], face[k][2], face[k][1]}, new_l{face[l][0], face[l][2], face[l][1]};
-        if (edges.count(std::minmax(tet[i], tet[j])) || patch(id[i]) != patch(id[j]) ||
+        if (edges.count(edge_key(tet[i], tet[j])) || patch(id[i]) != patch(id[j]) ||
             !flip_folds_little(p, face[i], face[j], new_k, new_l))
             continue;
         mesh.boundary_faces[id[i]] = new_k;
@@ -649,8 +648,8 @@ int64_t peel_surface_caps(TetMesh& mesh, int32_t surface_points, double threshol
         face_id.erase(key(face[j]));
         face_id[key(new_k)] = id[i];
         face_id[key(new_l)] = id[j];
-        edges.erase(std::minmax(tet[k], tet[l]));
-        edges.insert(std::minmax(tet[i], tet[j]));
+        edges.erase(edge_key(tet[k], tet[l]));
+        edges.insert(edge_key(tet[i], tet[j]));
         peeled[t] = 1;
         ++count;
     }
@@ -667,9 +666,7 @@ std::vector<int32_t> flip_surface_quads(const SurfaceMesh& surface, const std::v
 {
     std::vector<int32_t> left;
     if (which.empty()) return left;
-    std::set<std::pair<int32_t, int32_t>> edges;
-    for (const Triangle& f : triangles)
-        for (int i = 0; i < 3; ++i) edges.insert(std::minmax(f[i], f[(i + 1) % 3]));
+    EdgeSet edges = edge_set(triangles);
     for (int32_t q : which) {
         const auto [a, b, c, d] = quads[q];
         if (!surface_flip_allowed(surface, quads[q], quad_triangles[q], edges)) {
@@ -678,8 +675,8 @@ std::vector<int32_t> flip_surface_quads(const SurfaceMesh& surface, const std::v
         }
         triangles[quad_triangles[q][0]] = {a, b, d};
         triangles[quad_triangles[q][1]] = {b, c, d};
-        edges.erase(std::minmax(a, c));
-        edges.insert(std::minmax(b, d));
+        edges.erase(edge_key(a, c));
+        edges.insert(edge_key(b, d));
     }
     return left;
 }
@@ -748,10 +745,7 @@ SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double thresh
     }
     // Slivers of four surface points that are left: split an edge that is
     // not on the surface.
-    std::set<std::pair<int32_t, int32_t>> surface_edges;
-    for (const Triangle& f : mesh.boundary_faces)
-        for (int i = 0; i < 3; ++i)
-            surface_edges.insert(std::minmax(f[i], f[(i + 1) % 3]));
+    const EdgeSet surface_edges = edge_set(mesh.boundary_faces);
     const size_t n = ed.size();
     for (size_t t = 0; t < n; ++t) {
         const int32_t id = static_cast<int32_t>(t);
@@ -760,7 +754,7 @@ SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double thresh
         if (*std::max_element(tet.begin(), tet.end()) >= surface_points) continue;
         for (int i = 0; i < 4 && ed.alive(id); ++i)
             for (int j = i + 1; j < 4 && ed.alive(id); ++j)
-                if (!surface_edges.count(std::minmax(tet[i], tet[j])) && split_surface_sliver_edge(ed, tet[i], tet[j]))
+                if (!surface_edges.count(edge_key(tet[i], tet[j])) && split_surface_sliver_edge(ed, tet[i], tet[j]))
                     ++counts.splits;
     }
     counts.flips = flips.flips_32 + flips.flips_23 + flips.flips_44;

@@ -2,13 +2,12 @@
 // Tet mesh improvement, paper section 2.4: flips with the volume criterion,
 // then sliver removal (own design, in the spirit of the paper's tet crushing).
 
+#include "core/adjacency.h"
 #include "core/surface_mesh.h"
 #include "core/tet_mesh.h"
 
 #include <array>
 #include <cstdint>
-#include <set>
-#include <utility>
 #include <vector>
 
 namespace scalemesh {
@@ -39,7 +38,7 @@ std::vector<int32_t> repair_surface_quads(TetMesh& mesh, const std::vector<std::
 // are in one patch, and the normals of (a, b, d) and (b, c, d) are within 60
 // degrees of each other and of the quad's.
 bool surface_flip_allowed(const SurfaceMesh& surface, const std::array<int32_t, 4>& quad,
-                          const std::array<int32_t, 2>& ids, const std::set<std::pair<int32_t, int32_t>>& edges);
+                          const std::array<int32_t, 2>& ids, const EdgeSet& edges);
 
 std::vector<int32_t> flip_surface_quads(const SurfaceMesh& surface, const std::vector<std::array<int32_t, 4>>& quads,
                                         const std::vector<std::array<int32_t, 2>>& quad_triangles,
