@@ -4,6 +4,7 @@
 #include "core/errors.h"
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
@@ -148,13 +149,18 @@ SurfaceFacts surface_facts(const SurfaceMesh& mesh)
     // is manifold when its link edges form a single cycle.
     // The vertices are judged in parallel; their counts are integers, so the
     // sums do not depend on the split.
+    // The same pass lists, for the components, the pairs of triangles that
+    // share an edge (consecutive ones where more than two do), as
+    // triangle_components joins them.
     const VertexTable fans = vertex_triangles(mesh);
     struct Counts {
         int64_t edges = 0, boundary = 0, nonmanifold_edges = 0, misoriented = 0, nonmanifold_vertices = 0;
     };
+    tbb::enumerable_thread_specific<std::vector<std::pair<int32_t, int32_t>>> joins;
     const auto judge = [&](const tbb::blocked_range<int32_t>& range, Counts counts) {
         std::vector<FanEdge> edges;
         std::vector<std::pair<int32_t, int32_t>> link;
+        auto& join = joins.local();
         for (int32_t v = range.begin(); v != range.end(); ++v) {
             if (fans.size(v) == 0) continue;
             fan_edges(mesh, fans, v, edges);
@@ -162,6 +168,8 @@ SurfaceFacts surface_facts(const SurfaceMesh& mesh)
                 size_t j = i;
                 int outgoing = 0;
                 while (j < edges.size() && edges[j].w == edges[i].w) outgoing += edges[j++].outgoing;
+                if (edges[i].w > v)
+                    for (size_t k = i + 1; k < j; ++k) join.emplace_back(edges[k].triangle, edges[k - 1].triangle);
                 if (edges[i].w > v) {
                     const size_t n = j - i;
                     ++counts.edges;
@@ -216,8 +224,16 @@ SurfaceFacts surface_facts(const SurfaceMesh& mesh)
     facts.misoriented_edges = counts.misoriented;
     facts.nonmanifold_vertices = counts.nonmanifold_vertices;
 
-    int32_t components = 0;
-    triangle_components(mesh, &components);
+    const auto nt = static_cast<int32_t>(mesh.triangles.size());
+    std::vector<int32_t> parent(nt);
+    std::iota(parent.begin(), parent.end(), 0);
+    for (const auto& join : joins)
+        for (const auto& [a, b] : join) {
+            const int32_t ra = find_root(parent, a), rb = find_root(parent, b);
+            if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
+        }
+    int64_t components = 0;
+    for (int32_t f = 0; f < nt; ++f) components += find_root(parent, f) == f;
     facts.components = components;
     facts.euler_characteristic = facts.vertices - facts.edges + facts.triangles;
     facts.signed_volume = signed_volume(mesh);

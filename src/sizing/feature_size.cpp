@@ -6,7 +6,9 @@
 #include "sizing/local_diameter.h"
 #include "sizing/normals.h"
 
-#include <tbb/parallel_sort.h>
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <chrono>
@@ -54,15 +56,19 @@ void validate_field(const std::vector<double>& field, const char* name, size_t p
 // d_k = d_i + G |x_k - x_i|, until no edge has positive excess. Every order of
 // relaxations ends at the same field, the largest one below the clamped d
 // that meets the limit: d_k = min over i of (d_i + G * path length from k to
-// i). The paper pops the edge of largest excess, which relaxes a node several
-// times (five on average on a 763k-vertex torus); here the queue holds nodes
-// by tentative d, smallest first, as in Dijkstra's algorithm, so a node's d is
-// final when it leaves the queue and each edge is relaxed once. Most nodes
-// are never lowered (about three in four on the pretzel phantom), so the
-// queue is two: all nodes sorted by their clamped d once, and a binary heap
-// of the lowered ones; the next node is the smaller of the two fronts, and an
-// entry whose d is no longer its node's is skipped. Nodes leave in the same
-// order as from one heap with decrease-key.
+// i), each sum rounded step by step along the path; rounding is monotone and
+// G |x_k - x_i| > 0, so this holds bit for bit, not only in exact arithmetic.
+// The paper pops the edge of largest excess, which relaxes a node several
+// times (five on average on a 763k-vertex torus); here, as in Dijkstra's
+// algorithm, nodes are finalised in order of their d, so each edge is
+// relaxed once. Most nodes are never lowered (about three in four on the
+// pretzel phantom, all of them where d is uniform), so every node first
+// takes, in parallel, the limit from its neighbours' clamped values; only
+// the nodes that this lowers enter the queue (a binary heap), and the ones
+// lowered later from a finalised node join them. A node never lowered keeps
+// its clamped value, which the first round has passed on to its
+// neighbours; a lowered one passes on its final value when it leaves the
+// queue.
 class GradientLimiter {
 public:
     GradientLimiter(const SurfaceMesh& mesh, double G, std::vector<double>& d)
@@ -73,21 +79,28 @@ public:
     void run()
     {
         const auto n = static_cast<int32_t>(d_.size());
-        std::vector<char> done(n, 0);
-        std::vector<Entry> sorted(n);
-        for (int32_t i = 0; i < n; ++i) sorted[i] = Entry{d_[i], i};
-        tbb::parallel_sort(sorted.begin(), sorted.end(), Less{});
-        std::vector<Entry> lowered; // a heap, smallest on top
-        size_t next = 0;
-        while (next < sorted.size() || !lowered.empty()) {
-            Entry top;
-            if (lowered.empty() || (next < sorted.size() && Less{}(sorted[next], lowered.front()))) {
-                top = sorted[next++];
-            } else {
-                std::pop_heap(lowered.begin(), lowered.end(), Greater{});
-                top = lowered.back();
-                lowered.pop_back();
+        const std::vector<double> clamped = d_;
+        tbb::enumerable_thread_specific<std::vector<Entry>> found;
+        tbb::parallel_for(tbb::blocked_range<int32_t>(0, n, 4096), [&](const tbb::blocked_range<int32_t>& range) {
+            auto& local = found.local();
+            for (int32_t k = range.begin(); k != range.end(); ++k) {
+                double best = clamped[k];
+                for (const int32_t* i = neighbours_.begin(k); i != neighbours_.end(k); ++i)
+                    best = std::min(best, clamped[*i] + G_ * distance(mesh_.points[k], mesh_.points[*i]));
+                if (best < clamped[k]) {
+                    d_[k] = best;
+                    local.push_back(Entry{best, k});
+                }
             }
+        });
+        std::vector<Entry> lowered; // a heap, smallest on top
+        for (const auto& local : found) lowered.insert(lowered.end(), local.begin(), local.end());
+        std::make_heap(lowered.begin(), lowered.end(), Greater{});
+        std::vector<char> done(n, 0);
+        while (!lowered.empty()) {
+            std::pop_heap(lowered.begin(), lowered.end(), Greater{});
+            const Entry top = lowered.back();
+            lowered.pop_back();
             const int32_t i = top.node;
             if (done[i] || top.d != d_[i]) continue; // lowered since
             done[i] = 1;
