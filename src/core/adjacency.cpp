@@ -1,5 +1,8 @@
 #include "core/adjacency.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 
 namespace scalemesh {
@@ -34,18 +37,23 @@ VertexTable vertex_neighbours(const SurfaceMesh& mesh)
             raw[fill[t[k]]++] = t[(k + 1) % 3];
             raw[fill[t[k]]++] = t[(k + 2) % 3];
         }
-    // Sort and unique each row, compacting in place.
-    table.items.clear();
-    table.items.reserve(raw.size() / 2);
+    // Sort and unique each row (rows in parallel; each touches only its own
+    // slice), then compact.
     std::vector<int32_t> offsets(n + 1, 0);
-    for (int32_t i = 0; i < n; ++i) {
-        auto first = raw.begin() + table.offsets[i];
-        auto last = raw.begin() + table.offsets[i + 1];
-        std::sort(first, last);
-        last = std::unique(first, last);
-        table.items.insert(table.items.end(), first, last);
-        offsets[i + 1] = static_cast<int32_t>(table.items.size());
-    }
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, n, 4096), [&](const tbb::blocked_range<int32_t>& range) {
+        for (int32_t i = range.begin(); i != range.end(); ++i) {
+            const auto first = raw.begin() + table.offsets[i];
+            auto last = raw.begin() + table.offsets[i + 1];
+            std::sort(first, last);
+            offsets[i + 1] = static_cast<int32_t>(std::unique(first, last) - first);
+        }
+    });
+    for (int32_t i = 0; i < n; ++i) offsets[i + 1] += offsets[i];
+    table.items.resize(offsets[n]);
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, n, 4096), [&](const tbb::blocked_range<int32_t>& range) {
+        for (int32_t i = range.begin(); i != range.end(); ++i)
+            std::copy_n(raw.begin() + table.offsets[i], offsets[i + 1] - offsets[i], table.items.begin() + offsets[i]);
+    });
     table.offsets = std::move(offsets);
     return table;
 }
