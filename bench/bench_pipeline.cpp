@@ -12,9 +12,12 @@
 // same vessel would make it grow, and the default 12 voxels gives about a
 // million tets at 256 voxels across the torus.
 //
-// Each size and thread count runs in a forked child of a process that holds
-// no mesh and has started no threads, so the child's peak resident set
-// (getrusage before its references run) is that run's own. CGAL Mesh_3 runs
+// Each run of the pipeline is a forked child of a process that holds no mesh
+// and has started no threads, so the child's peak resident set (getrusage
+// before its references run) is that run's own. The thread counts take turns
+// run by run (1, 2, 1, 2, ...), so that a machine whose speed drifts (other
+// work on the host) slows both alike and the speed-ups stay fair; the
+// references run in the last round. CGAL Mesh_3 runs
 // in a child of its own with criteria scaled until its tet count is within
 // 20% of ours.
 //
@@ -197,9 +200,10 @@ json measure_snappy(const CaseResult& ours, int layers, const fs::path& dir)
             {"thickness_percent", r.thickness_percent}};
 }
 
-// Our pipeline N times end to end, then (with `cgal`) the CGAL references on
-// the last run's surfaces and points; volumeToMesh on every thread count.
-json measure_pipeline(const Settings& s, int box, int threads, bool cgal, const fs::path& work_dir)
+// Our pipeline once end to end, then (with `references`) volumeToMesh on
+// the same grid and (with `cgal` too) the CGAL references on the run's
+// surfaces and points.
+json measure_pipeline(const Settings& s, int box, int threads, bool references, bool cgal, const fs::path& work_dir)
 {
     const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(threads));
     const double h = voxel_size(s, box);
@@ -210,8 +214,7 @@ json measure_pipeline(const Settings& s, int box, int threads, bool cgal, const 
     std::map<std::string, std::vector<double>> samples;
     CaseResult last;
     int retries = 0;
-    for (int r = 0; r < s.repeats; ++r) {
-        last = {}; // the previous run's mesh is freed before the next starts
+    {
         const auto start = Clock::now();
         last = run_case(dir);
         const double total = seconds_since(start);
@@ -238,12 +241,13 @@ json measure_pipeline(const Settings& s, int box, int threads, bool cgal, const 
     out["remeshed_triangles"] = last.run.remeshed->surface.triangles.size();
     out["tets"] = last.run.volume->mesh.tets.size();
     out["points"] = last.run.volume->mesh.points.size();
-    out["volume_retries"] = retries / s.repeats;
+    out["volume_retries"] = retries;
     for (const auto& [name, values] : samples) {
         out["seconds"][name] = median(values);
         out["samples"][name] = values;
     }
 
+    if (!references) return out;
     const auto shape = make_shape(s.shape, h);
     const auto grid = voxelize(*shape, {.voxel_size = h});
     size_t vdb_triangles = 0;
@@ -717,20 +721,49 @@ int main(int argc, char** argv)
             continue;
         }
         json size = {{"box", box}, {"box_text", box_text}, {"voxel_size_mm", h}, {"runs", json::array()}};
+        std::map<int, std::vector<json>> parts; // per thread count, one per run
+        std::printf("%s: %d runs of the pipeline on each of", box_text.c_str(), s.repeats);
+        for (int t : s.threads) std::printf(" %d", t);
+        std::printf(" threads, taking turns...\n");
+        for (int r = 0; r < s.repeats; ++r)
+            for (int t : s.threads) {
+                const bool last_round = r + 1 == s.repeats, cgal = t == s.threads.front();
+                parts[t].push_back(
+                    in_child([&] { return measure_pipeline(s, box, t, last_round, last_round && cgal, work_dir); }));
+            }
         for (int t : s.threads) {
-            std::printf("%s, %d thread%s: %d runs of the pipeline...\n", box_text.c_str(), t, t == 1 ? "" : "s", s.repeats);
-            const bool cgal = t == s.threads.front();
-            json run = in_child([&] { return measure_pipeline(s, box, t, cgal, work_dir); });
+            // The last run carries the references; the samples, peaks and
+            // retries of all runs are merged into it.
+            json run = parts[t].back();
+            for (const json& part : parts[t])
+                if (part.contains("error")) run = part;
             if (!run.contains("error")) {
-                std::printf("  %s tets, end to end %.2f s (import %.2f, isosurface %.2f, smoothing %.2f, sizing %.2f, "
-                            "remeshing %.2f, volume %.2f, write %.2f), peak %s MiB\n",
-                            number(run["tets"].get<double>(), 4).c_str(), seconds_of(run, "total"), seconds_of(run, "import"),
-                            seconds_of(run, "isosurface"), seconds_of(run, "smoothing"), seconds_of(run, "sizing"),
-                            seconds_of(run, "remeshing"), seconds_of(run, "volume"), seconds_of(run, "write"),
-                            mib(run["peak_bytes"]).c_str());
+                run["samples"] = json::object();
+                double peak = 0, child_peak = 0;
+                int retries = 0;
+                for (const json& part : parts[t]) {
+                    for (const auto& [name, values] : part["samples"].items())
+                        for (const json& v : values) run["samples"][name].push_back(v);
+                    peak = std::max(peak, part["peak_bytes"].get<double>());
+                    child_peak = std::max(child_peak, part["child_peak_bytes"].get<double>());
+                    retries += part["volume_retries"].get<int>();
+                }
+                for (const auto& [name, values] : run["samples"].items()) {
+                    std::vector<double> v = values.get<std::vector<double>>();
+                    run["seconds"][name] = median(v);
+                }
+                run["peak_bytes"] = peak;
+                run["child_peak_bytes"] = child_peak;
+                run["volume_retries"] = retries / s.repeats;
+                std::printf("  %d thread%s: %s tets, end to end %.2f s (import %.2f, isosurface %.2f, smoothing %.2f, "
+                            "sizing %.2f, remeshing %.2f, volume %.2f, write %.2f), peak %s MiB\n",
+                            t, t == 1 ? "" : "s", number(run["tets"].get<double>(), 4).c_str(), seconds_of(run, "total"),
+                            seconds_of(run, "import"), seconds_of(run, "isosurface"), seconds_of(run, "smoothing"),
+                            seconds_of(run, "sizing"), seconds_of(run, "remeshing"), seconds_of(run, "volume"),
+                            seconds_of(run, "write"), mib(run["peak_bytes"]).c_str());
                 bytes_per_voxel = std::max(bytes_per_voxel, run["peak_bytes"].get<double>() / (double(nx) * ny * nz));
             } else {
-                std::printf("  failed: %s\n", run["error"].get<std::string>().c_str());
+                std::printf("  %d thread%s: failed: %s\n", t, t == 1 ? "" : "s", run["error"].get<std::string>().c_str());
             }
             size["runs"].push_back(run);
         }
