@@ -74,10 +74,20 @@ class RayCaster {
 public:
     RayCaster(const SurfaceMesh& mesh) : mesh_(mesh), fans_(vertex_triangles(mesh))
     {
-        Vec3 lo, hi;
-        bounding_box(mesh, lo, hi);
-        centre_ = mesh.points.empty() ? Vec3{} : 0.5 * (lo + hi);
-        tnear_ = static_cast<float>(kNearFraction * distance(lo, hi));
+        // The box of the points the triangles use: a stray point elsewhere
+        // would only cost precision.
+        const double inf = std::numeric_limits<double>::infinity();
+        Vec3 lo{inf, inf, inf}, hi{-inf, -inf, -inf};
+        for (int32_t i = 0; i < static_cast<int32_t>(mesh.points.size()); ++i)
+            if (fans_.size(i) > 0)
+                for (int k = 0; k < 3; ++k) {
+                    lo[k] = std::min(lo[k], mesh.points[i][k]);
+                    hi[k] = std::max(hi[k], mesh.points[i][k]);
+                }
+        if (!(lo.x <= hi.x)) lo = hi = Vec3{}; // no triangles
+        centre_ = 0.5 * (lo + hi);
+        const double near = kNearFraction * distance(lo, hi);
+        tnear_ = std::isfinite(near) ? static_cast<float>(near) : 0.0f;
     }
 
     // Builds the BVH; returns its wall time.
@@ -121,7 +131,7 @@ public:
     }
 
     // Distance from point i along `direction` (unit) to the first triangle
-    // not incident to i; +infinity when the ray escapes.
+    // not incident to i, from tnear_ on; +infinity when the ray escapes.
     double cast(int32_t i, const Vec3& direction) const
     {
         OriginContext context;

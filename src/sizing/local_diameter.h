@@ -22,7 +22,9 @@ struct RayResults {
 
 // Casts the rays from every point referenced by a triangle. Hits on the
 // triangles incident to the ray's own origin vertex are ignored (the ray
-// starts on them), every other triangle counts, at any distance > 0.
+// starts on them), every other triangle counts, at any distance of at least
+// 1e-6 of the diagonal of the triangles' bounding box (nearer hits are
+// below the single-precision resolution of the BVH, see below).
 //
 // Where inward_ok[i] is 0 no ray is cast: D = L_max (section 2.1) and
 // D_out = +infinity (the normal is not trusted, so it sets no bound). Where an

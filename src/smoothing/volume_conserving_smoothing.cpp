@@ -27,6 +27,12 @@ void validate(const SurfaceMesh& mesh, const SmoothingParams& params, const Smoo
         throw InputError("smoothing max_displacement is " + std::to_string(params.max_displacement),
                          "use a distance >= 0 in mm (0: unbounded)");
     require_closed_manifold(mesh, "the surface to smooth");
+    for (size_t i = 0; i < mesh.points.size(); ++i) {
+        const Vec3& p = mesh.points[i];
+        if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+            throw InputError("point " + std::to_string(i) + " of the surface to smooth is not finite",
+                             "give finite coordinates");
+    }
     if (!constraint) return;
     const size_t n = mesh.points.size();
     if (!constraint->fixed.empty() && constraint->fixed.size() != n)
@@ -95,7 +101,7 @@ public:
         double h = std::max(3.003 * std::sqrt(longest2), extent / double(kMaxCells - 2));
         if (!(h > 0) || !std::isfinite(h)) h = std::numeric_limits<double>::max(); // one cell
         auto index = [&](double x, double x0) {
-            return std::min<uint64_t>(kMaxCells - 1, static_cast<uint64_t>(std::max(0.0, std::floor((x - x0) / h))));
+            return static_cast<uint64_t>(std::min(double(kMaxCells - 1), std::max(0.0, std::floor((x - x0) / h))));
         };
         std::vector<std::pair<uint64_t, int32_t>> keyed(n);
         tbb::parallel_for(tbb::blocked_range<int32_t>(0, n, 4096), [&](const tbb::blocked_range<int32_t>& range) {

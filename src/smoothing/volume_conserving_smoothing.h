@@ -61,7 +61,8 @@ struct SmoothingConstraint {
 // deterministic function of the input (bit-identical on every run and on any
 // number of threads).
 //
-// Throws InputError when the mesh is not a closed, oriented 2-manifold, when
+// Throws InputError when the mesh is not a closed, oriented 2-manifold or has
+// a point that is not finite, when
 // sweeps < 0, omega is outside (0, 1], max_displacement is negative or not
 // finite, or when a constraint vector is
 // neither empty nor the size of mesh.points.

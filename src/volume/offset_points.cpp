@@ -3,14 +3,16 @@
 #include "core/errors.h"
 
 #include <tbb/blocked_range.h>
-#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <numeric>
+#include <string>
+#include <unordered_map>
 
 namespace scalemesh {
 
@@ -100,13 +102,18 @@ std::vector<OffsetPoint> filter_interior_points(const std::vector<OffsetPoint>& 
     // forward only: the search reads the sorted array in nine streams
     // instead of looking up 27 cells per point.
     const size_t n = points.size();
+    if (n > std::numeric_limits<uint32_t>::max())
+        throw InputError("volume: " + std::to_string(n) + " interior points are more than the filter can index",
+                         "use a larger voxel size or a smaller L_max");
     Vec3 lo = points[0].position, hi = lo;
     for (const OffsetPoint& p : points) {
         lo = {std::min(lo.x, p.position.x), std::min(lo.y, p.position.y), std::min(lo.z, p.position.z)};
         hi = {std::max(hi.x, p.position.x), std::max(hi.y, p.position.y), std::max(hi.z, p.position.z)};
     }
     constexpr double kMaxCells = double(1 << 20);
-    cell = std::max({cell, (hi.x - lo.x) / kMaxCells, (hi.y - lo.y) / kMaxCells, (hi.z - lo.z) / kMaxCells});
+    // 1e-9 over the largest radius: a pair closer than its radius is then in
+    // neighbouring cells despite the rounding of the cell indices.
+    cell = (1 + 1e-9) * std::max({cell, (hi.x - lo.x) / kMaxCells, (hi.y - lo.y) / kMaxCells, (hi.z - lo.z) / kMaxCells});
     auto index = [&](double x, double x0) {
         return 1 + static_cast<uint64_t>(std::min(kMaxCells, std::max(0.0, std::floor((x - x0) / cell))));
     };
@@ -120,71 +127,75 @@ std::vector<OffsetPoint> filter_interior_points(const std::vector<OffsetPoint>& 
     });
     tbb::parallel_sort(by_cell.begin(), by_cell.end());
 
-    // The clashes: pairs of points from different generators closer than
-    // their radius, found for every point at once (the relation is
-    // symmetric). Only a few percent of the points have any.
-    constexpr uint64_t kField = (uint64_t(1) << 21) - 1;
-    auto first_at_or_after = [&](uint64_t key) {
-        return static_cast<size_t>(
-            std::lower_bound(by_cell.begin(), by_cell.end(), std::make_pair(key, uint32_t(0))) - by_cell.begin());
-    };
-    tbb::enumerable_thread_specific<std::vector<std::pair<uint32_t, uint32_t>>> found;
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& range) {
-        auto& local = found.local();
-        std::array<size_t, 9> cursor{};
-        for (size_t s = range.begin(); s != range.end(); ++s) {
-            const uint64_t key = by_cell[s].first;
-            const uint64_t i = key >> 42, j = (key >> 21) & kField, k = key & kField;
-            const uint32_t a = by_cell[s].second;
-            const OffsetPoint& p = points[a];
-            for (int c = 0; c < 9; ++c) {
-                const uint64_t column = pack(i + c / 3 - 1, j + c % 3 - 1, 0);
-                const uint64_t from = column | (k - 1), to = column | (k + 1);
-                size_t& at = cursor[c];
-                if (s == range.begin()) at = first_at_or_after(from);
-                while (at < n && by_cell[at].first < from) ++at;
-                for (size_t t = at; t < n && by_cell[t].first <= to; ++t) {
-                    const uint32_t b = by_cell[t].second;
-                    const OffsetPoint& q = points[b];
-                    if (q.generator != p.generator && distance(p.position, q.position) < radius(p.generator, q.generator))
-                        local.emplace_back(a, b);
-                }
-            }
-        }
-    });
-    std::vector<std::pair<uint32_t, uint32_t>> clashes;
-    for (const auto& local : found) clashes.insert(clashes.end(), local.begin(), local.end());
-    tbb::parallel_sort(clashes.begin(), clashes.end());
-
-    // The greedy pass of section 4 in order of distance to the generator
-    // (ties: the earlier point): a point is dropped when a kept point before
-    // it clashes with it. A point without clashes is always kept, so only
-    // the points with clashes are walked, and a clash partner before a
-    // point has clashes itself, so its verdict is known by then.
+    // Section 4's greedy pass, in order of distance to the generator (ties:
+    // the earlier point): a point is dropped when a kept point before it
+    // clashes with it (another generator, closer than their radius). A point
+    // with no clash partner before it at all is kept whatever the others
+    // do; those are found first, in parallel, each search stopping at its
+    // first partner. Only the few others are walked in order, against the
+    // kept points: the first kind from the sorted array (a point of the
+    // second kind never is one), the second kind from the cells they were
+    // put in as they were kept.
     auto before = [&](uint32_t a, uint32_t b) {
         return points[a].dist < points[b].dist || (points[a].dist == points[b].dist && a < b);
     };
-    std::vector<uint32_t> walked;
-    std::vector<size_t> clash_begin{0};
-    for (size_t c = 0; c < clashes.size(); ++c) {
-        if (c > 0 && clashes[c].first != clashes[c - 1].first) clash_begin.push_back(c);
-        if (c == 0 || clashes[c].first != clashes[c - 1].first) walked.push_back(clashes[c].first);
-    }
-    clash_begin.push_back(clashes.size());
-    if (walked.empty()) clash_begin = {0};
-    std::vector<uint32_t> order(walked.size());
-    std::iota(order.begin(), order.end(), 0u);
-    std::sort(order.begin(), order.end(), [&](uint32_t u, uint32_t v) { return before(walked[u], walked[v]); });
-    std::vector<char> keep(n, 1);
-    for (uint32_t w : order) {
-        const uint32_t a = walked[w];
-        for (size_t c = clash_begin[w]; c != clash_begin[w + 1]; ++c) {
-            const uint32_t b = clashes[c].second;
-            if (keep[b] && before(b, a)) {
-                keep[a] = 0;
-                break;
+    auto clash = [&](uint32_t a, uint32_t b) {
+        const OffsetPoint &p = points[a], &q = points[b];
+        return q.generator != p.generator && distance(p.position, q.position) < radius(p.generator, q.generator);
+    };
+    constexpr uint64_t kField = (uint64_t(1) << 21) - 1;
+    auto column_of = [&](uint64_t key, int c) { // the c-th of the nine columns next to the key's cell
+        const uint64_t i = key >> 42, j = (key >> 21) & kField;
+        return pack(i + c / 3 - 1, j + c % 3 - 1, 0);
+    };
+    auto first_at_or_after = [](const std::vector<std::pair<uint64_t, uint32_t>>& sorted, uint64_t key) {
+        return static_cast<size_t>(std::lower_bound(sorted.begin(), sorted.end(), std::make_pair(key, uint32_t(0))) -
+                                   sorted.begin());
+    };
+    std::vector<char> contested(n, 0);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& range) {
+        std::array<size_t, 9> cursor{};
+        for (size_t s = range.begin(); s != range.end(); ++s) {
+            const uint64_t key = by_cell[s].first, k = key & kField;
+            const uint32_t a = by_cell[s].second;
+            for (int c = 0; c < 9; ++c) {
+                const uint64_t from = column_of(key, c) | (k - 1), to = column_of(key, c) | (k + 1);
+                size_t& at = cursor[c];
+                if (s == range.begin()) at = first_at_or_after(by_cell, from);
+                while (at < n && by_cell[at].first < from) ++at;
+                if (contested[a]) continue; // the cursor still moves on
+                for (size_t t = at; t < n && by_cell[t].first <= to; ++t)
+                    if (before(by_cell[t].second, a) && clash(a, by_cell[t].second)) {
+                        contested[a] = 1;
+                        break;
+                    }
             }
         }
+    });
+    std::vector<std::pair<uint64_t, uint32_t>> free_by_cell; // the uncontested points, still sorted by cell
+    std::vector<std::pair<uint64_t, uint32_t>> walked;       // the contested ones, with their cells
+    for (const auto& entry : by_cell) (contested[entry.second] ? walked : free_by_cell).push_back(entry);
+    std::sort(walked.begin(), walked.end(), [&](const auto& u, const auto& v) { return before(u.second, v.second); });
+    std::vector<char> keep(n, 1);
+    std::unordered_map<uint64_t, std::vector<uint32_t>> kept_contested; // cell key -> kept contested points
+    for (const auto& [key, a] : walked) {
+        const uint64_t k = key & kField;
+        bool dropped = false;
+        for (int c = 0; c < 9 && !dropped; ++c) {
+            const uint64_t from = column_of(key, c) | (k - 1), to = column_of(key, c) | (k + 1);
+            for (size_t t = first_at_or_after(free_by_cell, from);
+                 t < free_by_cell.size() && free_by_cell[t].first <= to && !dropped; ++t)
+                dropped = before(free_by_cell[t].second, a) && clash(a, free_by_cell[t].second);
+            for (uint64_t cell_key = from; cell_key <= to && !dropped; ++cell_key)
+                if (const auto it = kept_contested.find(cell_key); it != kept_contested.end())
+                    for (uint32_t b : it->second)
+                        if (clash(a, b)) {
+                            dropped = true;
+                            break;
+                        }
+        }
+        if (dropped) keep[a] = 0;
+        else kept_contested[key].push_back(a);
     }
     std::vector<OffsetPoint> kept;
     kept.reserve(n);

@@ -49,11 +49,12 @@ std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const Feature
 // Section 4's interior-point filter: of two points from different generators
 // closer than filter_fraction * min(d_a, d_b) / M, the one farther from its
 // generator is dropped (ties: the later one). Greedy in order of distance to
-// the generator: a point goes when a point kept before it is that close. The
-// close pairs are found first, in parallel, over the points sorted by the
-// cell of a uniform grid (linear after the sort); the greedy pass then walks
-// only the points that have one. Returns the kept points in their input order; the result does
-// not depend on the number of threads.
+// the generator: a point goes when a point kept before it is that close.
+// Over the points sorted by the cell of a uniform grid, the points with no
+// close point before them at all (nearly all) are found in parallel and
+// kept; only the others are walked in order. Memory stays linear in the
+// points however many are close together. Returns the kept points in their
+// input order; the result does not depend on the number of threads.
 std::vector<OffsetPoint> filter_interior_points(const std::vector<OffsetPoint>& points, const FeatureSize& sizing,
                                                 const OffsetParams& params);
 

@@ -127,6 +127,31 @@ TEST(FilterInteriorPoints, KeepsWhatTheGreedyRuleOverAllPairsKeepsOnAnyThreadCou
     }
 }
 
+// Where many generators' innermost points meet (the centre of a sphere), all
+// of them clash with each other: the first in order stays, the rest go, in
+// time and memory linear in the points.
+TEST(FilterInteriorPoints, PointsCrowdedAtOneSpotKeepOnlyTheFirst)
+{
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> unit(-1, 1);
+    const int count = 50000;
+    FeatureSize sizing;
+    sizing.d.assign(count, 1.0);
+    std::vector<OffsetPoint> points;
+    for (int k = 0; k < count; ++k)
+        points.push_back({{1e-4 * unit(rng), 1e-4 * unit(rng), 1e-4 * unit(rng)}, k, 4, true, 0.5 + 0.1 * unit(rng), 0.1});
+    OffsetParams params;
+    params.M = 7;
+    params.L_max = 1;
+    params.filter_fraction = 0.1; // radius 0.014, far above the spread
+    const std::vector<OffsetPoint> kept = filter_interior_points(points, sizing, params);
+    ASSERT_EQ(kept.size(), 1u);
+    const auto first = std::min_element(points.begin(), points.end(),
+                                        [](const OffsetPoint& a, const OffsetPoint& b) { return a.dist < b.dist; });
+    EXPECT_EQ(kept[0].generator, first->generator);
+    EXPECT_EQ(greedy_by_all_pairs(points, sizing, params), std::vector<size_t>{size_t(first->generator)});
+}
+
 TEST(FilterInteriorPoints, PointsOfOneGeneratorNeverClash)
 {
     FeatureSize sizing;
