@@ -168,9 +168,8 @@ SurfaceFacts surface_facts(const SurfaceMesh& mesh)
                 size_t j = i;
                 int outgoing = 0;
                 while (j < edges.size() && edges[j].w == edges[i].w) outgoing += edges[j++].outgoing;
-                if (edges[i].w > v)
-                    for (size_t k = i + 1; k < j; ++k) join.emplace_back(edges[k].triangle, edges[k - 1].triangle);
                 if (edges[i].w > v) {
+                    for (size_t k = i + 1; k < j; ++k) join.emplace_back(edges[k].triangle, edges[k - 1].triangle);
                     const size_t n = j - i;
                     ++counts.edges;
                     if (n == 1) ++counts.boundary;

@@ -86,7 +86,7 @@ public:
             for (int32_t k = range.begin(); k != range.end(); ++k) {
                 double best = clamped[k];
                 for (const int32_t* i = neighbours_.begin(k); i != neighbours_.end(k); ++i)
-                    best = std::min(best, clamped[*i] + G_ * distance(mesh_.points[k], mesh_.points[*i]));
+                    best = std::min(best, limit(clamped[*i], *i, k));
                 if (best < clamped[k]) {
                     d_[k] = best;
                     local.push_back(Entry{best, k});
@@ -106,9 +106,7 @@ public:
             done[i] = 1;
             for (const int32_t* k = neighbours_.begin(i); k != neighbours_.end(i); ++k) {
                 if (done[*k]) continue;
-                // The same G l for both directions of an edge (|x_k - x_i| and
-                // |x_i - x_k| round identically): a relaxed edge has excess 0.
-                const double limited = d_[i] + G_ * distance(mesh_.points[*k], mesh_.points[i]);
+                const double limited = limit(d_[i], i, *k);
                 if (d_[*k] > limited) {
                     d_[*k] = limited;
                     lowered.push_back(Entry{limited, *k});
@@ -119,6 +117,15 @@ public:
     }
 
 private:
+    // The bound node i with size d_i puts on its neighbour k. Both rounds
+    // use this one expression, so that the field is the same to the last
+    // bit; |x_k - x_i| and |x_i - x_k| round identically, so a relaxed edge
+    // has excess 0 both ways.
+    double limit(double d_i, int32_t i, int32_t k) const
+    {
+        return d_i + G_ * distance(mesh_.points[k], mesh_.points[i]);
+    }
+
     struct Entry {
         double d;
         int32_t node;

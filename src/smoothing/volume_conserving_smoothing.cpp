@@ -16,6 +16,8 @@ namespace scalemesh {
 
 namespace {
 
+bool finite(const Vec3& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); }
+
 void validate(const SurfaceMesh& mesh, const SmoothingParams& params, const SmoothingConstraint* constraint)
 {
     if (params.sweeps < 0)
@@ -27,12 +29,10 @@ void validate(const SurfaceMesh& mesh, const SmoothingParams& params, const Smoo
         throw InputError("smoothing max_displacement is " + std::to_string(params.max_displacement),
                          "use a distance >= 0 in mm (0: unbounded)");
     require_closed_manifold(mesh, "the surface to smooth");
-    for (size_t i = 0; i < mesh.points.size(); ++i) {
-        const Vec3& p = mesh.points[i];
-        if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+    for (size_t i = 0; i < mesh.points.size(); ++i)
+        if (!finite(mesh.points[i]))
             throw InputError("point " + std::to_string(i) + " of the surface to smooth is not finite",
                              "give finite coordinates");
-    }
     if (!constraint) return;
     const size_t n = mesh.points.size();
     if (!constraint->fixed.empty() && constraint->fixed.size() != n)
@@ -43,12 +43,10 @@ void validate(const SurfaceMesh& mesh, const SmoothingParams& params, const Smoo
         throw InputError("smoothing constraint has " + std::to_string(constraint->plane_normal.size()) +
                              " plane normals for " + std::to_string(n) + " points",
                          "give one normal per point (zero for a free point), or none");
-    for (size_t i = 0; i < constraint->plane_normal.size(); ++i) {
-        const Vec3& p = constraint->plane_normal[i];
-        if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+    for (size_t i = 0; i < constraint->plane_normal.size(); ++i)
+        if (!finite(constraint->plane_normal[i]))
             throw InputError("smoothing constraint plane normal of point " + std::to_string(i) + " is not finite",
                              "give a finite normal, or zero for a free point");
-    }
 }
 
 class VolumeConservingSmoother {
