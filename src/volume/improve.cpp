@@ -432,8 +432,8 @@ std::vector<Tet> split_at(TetEditor& ed, const std::vector<int32_t>& around, int
 // becomes (m, s, x, y) and (q, m, x, y). m is taken on the way from the
 // edge's midpoint to the centroid of the edge's ring, where the smallest
 // aspect ratio of the new tets is best; nothing changes unless that beats
-// the old tets' smallest one. Never used on a surface edge.
-bool split_surface_sliver_edge(TetEditor& ed, int32_t q, int32_t s)
+// the old tets' smallest one and `at_least`. Never used on a surface edge.
+bool split_surface_sliver_edge(TetEditor& ed, int32_t q, int32_t s, double at_least)
 {
     const std::vector<int32_t> around = ed.around_edge(q, s);
     if (around.empty()) return false;
@@ -449,7 +449,7 @@ bool split_surface_sliver_edge(TetEditor& ed, int32_t q, int32_t s)
     const Vec3 mid = 0.5 * (ed.point(q) + ed.point(s));
     const int32_t m = ed.add_point(mid);
     std::vector<Tet> fresh = split_at(ed, around, q, s, m);
-    double best = old_q;
+    double best = std::max(old_q, at_least);
     Vec3 best_position;
     bool found = false;
     for (double w : {0.0, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6}) {
@@ -743,23 +743,34 @@ SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double thresh
         next.erase(std::unique(next.begin(), next.end()), next.end());
         visit = std::move(next);
     }
-    // Slivers of four surface points that are left: split an edge that is
-    // not on the surface.
+    counts.flips = flips.flips_32 + flips.flips_23 + flips.flips_44;
+    ed.commit();
+    return counts;
+}
+
+int64_t split_surface_slivers(TetMesh& mesh, int32_t surface_points, double threshold, double at_least)
+{
+    const std::vector<Vec3>& p = mesh.points;
+    auto surface_sliver = [&](const Tet& t) {
+        return *std::max_element(t.begin(), t.end()) < surface_points &&
+               tet_aspect_ratio(p[t[0]], p[t[1]], p[t[2]], p[t[3]]) < threshold;
+    };
+    if (std::none_of(mesh.tets.begin(), mesh.tets.end(), surface_sliver)) return 0;
+    int64_t splits = 0;
+    TetEditor ed(mesh);
     const EdgeSet surface_edges = edge_set(mesh.boundary_faces);
     const size_t n = ed.size();
     for (size_t t = 0; t < n; ++t) {
         const int32_t id = static_cast<int32_t>(t);
-        if (!ed.alive(id) || ed.aspect(ed.tet(id)) >= threshold) continue;
+        if (!ed.alive(id) || !surface_sliver(ed.tet(id))) continue;
         const Tet tet = ed.tet(id);
-        if (*std::max_element(tet.begin(), tet.end()) >= surface_points) continue;
         for (int i = 0; i < 4 && ed.alive(id); ++i)
             for (int j = i + 1; j < 4 && ed.alive(id); ++j)
-                if (!surface_edges.count(edge_key(tet[i], tet[j])) && split_surface_sliver_edge(ed, tet[i], tet[j]))
-                    ++counts.splits;
+                if (!surface_edges.count(edge_key(tet[i], tet[j])) && split_surface_sliver_edge(ed, tet[i], tet[j], at_least))
+                    ++splits;
     }
-    counts.flips = flips.flips_32 + flips.flips_23 + flips.flips_44;
     ed.commit();
-    return counts;
+    return splits;
 }
 
 } // namespace scalemesh

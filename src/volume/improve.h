@@ -75,7 +75,6 @@ FlipCounts flip_volume_criterion(TetMesh& mesh, int sweeps);
 struct SliverCounts {
     int64_t flips = 0; // quality-improving flips
     int64_t moves = 0; // accepted interior point moves
-    int64_t splits = 0; // edges split by a new interior point (appended to mesh.points)
 };
 
 // Sliver removal for tets with aspect ratio below `threshold`: first flips
@@ -84,12 +83,20 @@ struct SliverCounts {
 // such tets, each accepted only when it raises the smallest aspect ratio of
 // the point's incident tets and keeps all of them positively oriented
 // (line search along the gradient of the worst incident tet's aspect ratio,
-// and the star's centroid). At most `sweeps` rounds. Then a tet still below
-// `threshold` whose four vertices are surface points gets one of its edges
-// that is not a surface edge split by a new interior point (appended to
-// mesh.points), placed where the new tets are best, when that beats the old
-// ones. Surface points never move and no surface edge is split, so the
-// boundary is bit-identical (mesh.boundary_faces must hold it).
+// and the star's centroid). At most `sweeps` rounds. Surface points never
+// move, so the boundary is bit-identical.
 SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double threshold, int sweeps);
+
+// A tet below `threshold` whose four vertices are surface points (what
+// remove_slivers cannot touch) gets one of its edges that is not a surface
+// edge split by a new interior point (appended to mesh.points), placed where
+// the new tets are best, when their smallest aspect ratio beats the old
+// tets' and `at_least`. No surface edge is split, so the boundary is
+// bit-identical (mesh.boundary_faces must hold it). Returns the splits;
+// scans the tets and returns 0 without building anything when there is no
+// such tet. The volume stage splits where that reaches the quality floor,
+// then peels caps (peel_surface_caps), then splits what is left wherever
+// that is better at all.
+int64_t split_surface_slivers(TetMesh& mesh, int32_t surface_points, double threshold, double at_least);
 
 } // namespace scalemesh

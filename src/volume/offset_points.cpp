@@ -44,7 +44,8 @@ std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const Feature
                          "compute the sizing on the same surface that is meshed");
     if (!(params.L_max > 0) || !std::isfinite(params.L_max))
         throw InputError("volume: L_max must be a positive finite length in mm", "set L_max as for the sizing stage");
-    if (!(params.filter_fraction >= 0)) throw InputError("volume: filter_fraction must be >= 0", "use 0.2");
+    if (!(params.filter_fraction >= 0) || !(params.filler_filter_fraction >= 0))
+        throw InputError("volume: filter_fraction and filler_filter_fraction must be >= 0", "use 0.1 and 0.5");
     const std::vector<double> lambda = layer_fractions(params.M, params.growth);
 
     // Node i's points, passed one by one to `emit`; the count pass and the
@@ -85,12 +86,16 @@ std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const Feature
 std::vector<OffsetPoint> filter_interior_points(const std::vector<OffsetPoint>& points, const FeatureSize& sizing,
                                                 const OffsetParams& params)
 {
-    if (points.empty() || params.filter_fraction <= 0) return points;
-    auto radius = [&](int32_t a, int32_t b) {
-        return params.filter_fraction * std::min(sizing.d[a], sizing.d[b]) / params.M;
+    if (points.empty() || (params.filter_fraction <= 0 && params.filler_filter_fraction <= 0)) return points;
+    // The radius within which a point b kept before a drops a: the
+    // fraction of the layer spacing for any a; for a filler a, also the
+    // fraction of its own filler spacing (its radius bounds every other).
+    auto radius = [&](const OffsetPoint& a, const OffsetPoint& b) {
+        const double layer = params.filter_fraction * std::min(sizing.d[a.generator], sizing.d[b.generator]) / params.M;
+        return a.filler ? std::max(layer, params.filler_filter_fraction * a.spacing) : layer;
     };
     double cell = 0;
-    for (const OffsetPoint& p : points) cell = std::max(cell, radius(p.generator, p.generator));
+    for (const OffsetPoint& p : points) cell = std::max(cell, radius(p, p));
     if (!(cell > 0)) return points;
 
     // Grid cells of side `cell` (no radius is larger; larger still where
@@ -141,7 +146,7 @@ std::vector<OffsetPoint> filter_interior_points(const std::vector<OffsetPoint>& 
     };
     auto clash = [&](uint32_t a, uint32_t b) {
         const OffsetPoint &p = points[a], &q = points[b];
-        return q.generator != p.generator && distance(p.position, q.position) < radius(p.generator, q.generator);
+        return q.generator != p.generator && distance(p.position, q.position) < radius(p, q);
     };
     constexpr uint64_t kField = (uint64_t(1) << 21) - 1;
     auto column_of = [&](uint64_t key, int c) { // the c-th of the nine columns next to the key's cell

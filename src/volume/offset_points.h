@@ -17,6 +17,7 @@ struct OffsetParams {
                           // 1 = uniform lambda_m = 1/M (the paper's default)
     double L_max = 0;     // mm, > 0: filler spacing is min(D, L_max) / M
     double filter_fraction = 0.1; // interior-point filter radius, fraction of min(d_a, d_b) / M, >= 0
+    double filler_filter_fraction = 0.5; // a filler point's radius is at least this fraction of its own spacing
 };
 
 // One interior point x_i^m = x_i - dist n_i (n_i the outward unit normal).
@@ -48,8 +49,11 @@ std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const Feature
 
 // Section 4's interior-point filter: of two points from different generators
 // closer than filter_fraction * min(d_a, d_b) / M, the one farther from its
-// generator is dropped (ties: the later one). Greedy in order of distance to
-// the generator: a point goes when a point kept before it is that close.
+// generator is dropped (ties: the later one); a filler point is dropped as
+// well when the other is closer than filler_filter_fraction times the
+// filler's own spacing (fillers of many generators converge on the axis of
+// a tube much wider than L_max). Greedy in order of distance to the
+// generator: a point goes when a point kept before it is that close.
 // Over the points sorted by the cell of a uniform grid, the points with no
 // close point before them at all (nearly all) are found in parallel and
 // kept; only the others are walked in order. Memory stays linear in the

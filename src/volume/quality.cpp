@@ -65,7 +65,7 @@ QualityReport quality_report(const TetMesh& mesh)
             p.min_dihedral = std::min(p.min_dihedral, tet_min_dihedral_deg(a, bb, c, d));
             p.sum += q;
             p.low += q < 0.1;
-            p.below_0_02 += q < 0.02;
+            p.below_0_02 += q < kQualityFloor;
             ++p.histogram[std::clamp(static_cast<int>(std::floor(q * 20.0)), 0, 19)];
         }
     });

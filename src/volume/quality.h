@@ -18,6 +18,9 @@ double tet_aspect_ratio(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3&
 // 0 for a degenerate tet.
 double tet_min_dihedral_deg(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
 
+// The aspect ratio below which no tet should be left (what below_0_02 counts).
+constexpr double kQualityFloor = 0.02;
+
 struct QualityReport {
     int64_t tets = 0;
     double min_aspect_ratio = 0;     // over all tets (dimensionless)

@@ -55,7 +55,7 @@ TEST(OffsetPoints, LayersAtLambdaDThenFillersUpToHalfD)
     }
 }
 
-// Section 4's rule written out over all pairs: in order of distance to the
+// Section 4's rule written out over all pairs (with the filler radius): in order of distance to the
 // generator (ties: index), a point is dropped when a kept point before it
 // from another generator is closer than filter_fraction min(d_a, d_b) / M.
 std::vector<size_t> greedy_by_all_pairs(const std::vector<OffsetPoint>& points, const FeatureSize& sizing,
@@ -69,8 +69,9 @@ std::vector<size_t> greedy_by_all_pairs(const std::vector<OffsetPoint>& points, 
     for (size_t a : order) {
         bool clash = false;
         for (size_t b : kept_so_far) {
-            const double r =
+            double r =
                 params.filter_fraction * std::min(sizing.d[points[a].generator], sizing.d[points[b].generator]) / params.M;
+            if (points[a].filler) r = std::max(r, params.filler_filter_fraction * points[a].spacing);
             if (points[a].generator != points[b].generator && distance(points[a].position, points[b].position) < r) {
                 clash = true;
                 break;
@@ -89,8 +90,8 @@ std::vector<size_t> greedy_by_all_pairs(const std::vector<OffsetPoint>& points, 
 TEST(FilterInteriorPoints, KeepsWhatTheGreedyRuleOverAllPairsKeepsOnAnyThreadCount)
 {
     // 3000 points of 150 generators in a 0.3 mm cube, radius 0.1 d / 7 with d
-    // in [0.5, 1.5]: dense enough that many points clash. Distances are
-    // rounded to 0.01 so that ties occur.
+    // in [0.5, 1.5] (and half the spacing for fillers): dense enough that
+    // many points clash. Distances are rounded to 0.01 so that ties occur.
     std::mt19937 rng(7);
     std::uniform_real_distribution<double> unit(0, 1);
     FeatureSize sizing;
@@ -103,7 +104,7 @@ TEST(FilterInteriorPoints, KeepsWhatTheGreedyRuleOverAllPairsKeepsOnAnyThreadCou
         q.layer = 1 + static_cast<int32_t>(rng() % 5);
         q.filler = q.layer > 3;
         q.dist = std::round(100 * unit(rng)) / 100;
-        q.spacing = 0.1;
+        q.spacing = 0.02 + 0.04 * unit(rng); // filler radius 0.5 spacing: 0.01 to 0.03, around the layer radius
         points.push_back(q);
     }
     OffsetParams params;
@@ -150,6 +151,51 @@ TEST(FilterInteriorPoints, PointsCrowdedAtOneSpotKeepOnlyTheFirst)
                                         [](const OffsetPoint& a, const OffsetPoint& b) { return a.dist < b.dist; });
     EXPECT_EQ(kept[0].generator, first->generator);
     EXPECT_EQ(greedy_by_all_pairs(points, sizing, params), std::vector<size_t>{size_t(first->generator)});
+}
+
+// Filler rays of a tube converge on its axis (a torus's core, a large
+// vessel with L_max below its diameter): 96 generators around a circle of
+// radius 4, fillers every 0.0625 along each inward ray. Within 0.95 of the
+// axis neighbouring rays are closer than the spacing, and only the layer
+// radius (0.1 spacing here) would leave the points there hundreds of times
+// denser than elsewhere, the tets among them slivers. With the filler
+// radius no two kept fillers of different rays are closer than half the
+// spacing, and outside the converging zone every point stays.
+TEST(FilterInteriorPoints, FillersConvergingOnAnAxisAreThinnedToHalfTheirSpacing)
+{
+    const int rays = 96;
+    const double R = 4, s = 0.0625;
+    FeatureSize sizing;
+    sizing.d.assign(rays, 0.4375);
+    std::vector<OffsetPoint> points;
+    for (int g = 0; g < rays; ++g) {
+        const double angle = 2 * 3.14159265358979 * g / rays;
+        for (int m = 4; m * s <= R; ++m) {
+            const double r = R - m * s;
+            for (double z : {0.0, s})
+                points.push_back({{r * std::cos(angle), r * std::sin(angle), z}, g, m, true, m * s, s});
+        }
+    }
+    OffsetParams params;
+    params.M = 7;
+    params.L_max = 0.4375;
+    const std::vector<OffsetPoint> kept = filter_interior_points(points, sizing, params);
+    EXPECT_EQ(greedy_by_all_pairs(points, sizing, params).size(), kept.size());
+    double closest = 1e300;
+    for (size_t i = 0; i < kept.size(); ++i)
+        for (size_t j = i + 1; j < kept.size(); ++j)
+            if (kept[i].generator != kept[j].generator)
+                closest = std::min(closest, distance(kept[i].position, kept[j].position));
+    EXPECT_GE(closest, 0.5 * s);
+    // Rays 2 pi r / 96 apart: farther than half the spacing beyond r = 0.48.
+    size_t outside = 0, kept_outside = 0;
+    for (const OffsetPoint& p : points) outside += std::hypot(p.position.x, p.position.y) > 0.5;
+    for (const OffsetPoint& p : kept) kept_outside += std::hypot(p.position.x, p.position.y) > 0.5;
+    EXPECT_EQ(kept_outside, outside);
+    // Near the axis the layer radius alone keeps far more.
+    params.filler_filter_fraction = 0;
+    const std::vector<OffsetPoint> layer_rule = filter_interior_points(points, sizing, params);
+    EXPECT_GT(layer_rule.size(), kept.size() + 500) << kept.size();
 }
 
 TEST(FilterInteriorPoints, PointsOfOneGeneratorNeverClash)
