@@ -6,6 +6,7 @@
 #include <atomic>
 #include <csignal>
 #include <cstring>
+#include <thread>
 #include <unistd.h>
 
 namespace scalemesh {
@@ -39,7 +40,9 @@ void unregister_pending(int slot)
 // commit_all's state, for a handler running on any thread: masking the
 // signals holds them back only on the thread that commits, and the kernel
 // hands a process-directed signal to any thread that does not mask it (a TBB
-// worker), whose handler would remove the outputs not yet renamed.
+// worker), whose handler would remove the outputs not yet renamed. Below
+// kIdle, -n: n handlers are acting on a signal (removing the pending outputs
+// before the process ends), and no commit may start until they are done.
 enum CommitState : int { kIdle, kCommitting, kSignalled };
 std::atomic<int> g_commit_state{kIdle};
 std::atomic<int> g_deferred_signal{0};
@@ -82,7 +85,11 @@ void commit_all(StagedOutputs& outputs)
     sigaddset(&held, SIGHUP);
     pthread_sigmask(SIG_BLOCK, &held, &previous);
     g_deferred_signal.store(0);
-    g_commit_state.store(kCommitting);
+    // A handler acting on another thread ends the process (or, in a test,
+    // returns through signal_handled); the renames wait for it, so that it
+    // never sees some outputs in place and others still pending.
+    for (int expected = kIdle; !g_commit_state.compare_exchange_weak(expected, kCommitting); expected = kIdle)
+        std::this_thread::yield();
     // Ends the commit: a signal another thread's handler deferred is raised
     // again, now on this thread and with no commit running.
     const auto finish = [&] {
@@ -101,11 +108,19 @@ void commit_all(StagedOutputs& outputs)
 
 bool defer_signal_during_commit(int signal) noexcept
 {
-    if (g_commit_state.load() == kIdle) return false;
-    g_deferred_signal.store(signal);
-    int expected = kCommitting;
-    return g_commit_state.compare_exchange_strong(expected, kSignalled) || expected == kSignalled;
+    for (;;) {
+        int state = g_commit_state.load();
+        if (state <= kIdle) {
+            // No commit running: one more handler acting, and none starts.
+            if (g_commit_state.compare_exchange_weak(state, state - 1)) return false;
+            continue;
+        }
+        g_deferred_signal.store(signal);
+        if (state == kSignalled || g_commit_state.compare_exchange_weak(state, kSignalled)) return true;
+    }
 }
+
+void signal_handled() noexcept { g_commit_state.fetch_add(1); }
 
 void remove_pending_outputs() noexcept
 {

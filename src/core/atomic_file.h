@@ -45,8 +45,13 @@ void commit_all(StagedOutputs& outputs);
 
 // For signal handlers, on any thread: while commit_all runs, records the
 // signal for commit_all to raise again when it is done and returns true (the
-// handler then returns at once); otherwise returns false.
+// handler then returns at once); otherwise returns false, and no commit
+// starts until the process ends or the handler calls signal_handled.
 bool defer_signal_during_commit(int signal) noexcept;
+
+// For a handler that acted on a signal (defer_signal_during_commit returned
+// false) and returns instead of ending the process: commits may start again.
+void signal_handled() noexcept;
 
 // Removes every temporary file still pending; safe to call from a signal
 // handler (uses only unlink on pre-built names).

@@ -31,7 +31,7 @@ std::atomic<int> g_deferred{0};
 
 // What scalemesh's handler does before it removes the pending outputs and
 // exits: here it counts the outputs in place instead (access() is
-// async-signal-safe).
+// async-signal-safe), then returns and lets commits go on.
 void on_signal(int signal)
 {
     if (defer_signal_during_commit(signal)) {
@@ -39,11 +39,13 @@ void on_signal(int signal)
         return;
     }
     const int round = g_round.load();
-    if (round < 0) return;
-    int in_place = 0;
-    for (const auto& path : g_final[round]) in_place += ::access(path.data(), F_OK) == 0;
-    if (in_place != 0 && in_place != kOutputs) ++g_half_committed;
-    ++g_acted;
+    if (round >= 0) {
+        int in_place = 0;
+        for (const auto& path : g_final[round]) in_place += ::access(path.data(), F_OK) == 0;
+        if (in_place != 0 && in_place != kOutputs) ++g_half_committed;
+        ++g_acted;
+    }
+    signal_handled();
 }
 
 // The kernel gives a process-directed signal to any thread that does not
