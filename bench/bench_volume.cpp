@@ -78,9 +78,10 @@ int main(int argc, char** argv)
     std::printf("volume stage: %zu points, %zu tets (%lld inserted interior points, %lld retries)\n",
                 r.mesh.points.size(), tets, static_cast<long long>(r.inserted_points),
                 static_cast<long long>(r.insertion_retries));
-    std::printf("  seconds: points %.3f, insertion %.3f, classify %.3f, flips %.3f, slivers %.3f, total %.3f\n",
+    std::printf("  seconds: points %.3f, insertion %.3f, classify %.3f, flips %.3f, slivers %.3f, quality %.3f, "
+                "checks %.3f, total %.3f\n",
                 r.seconds_points, r.seconds_insertion, r.seconds_classify, r.seconds_flips, r.seconds_slivers,
-                r.seconds_total);
+                r.seconds_quality, r.seconds_checks, r.seconds_total);
     std::printf("  aspect ratio min %.4f / %.4f / %.4f, below 0.1: %.4f%% / %.4f%% / %.4f%% (raw / flips / slivers)\n",
                 q0.min_aspect_ratio, q1.min_aspect_ratio, q2.min_aspect_ratio, 100 * q0.fraction_below_0_1,
                 100 * q1.fraction_below_0_1, 100 * q2.fraction_below_0_1);

@@ -13,9 +13,16 @@
 #include <CGAL/spatial_sort.h>
 #include <CGAL/Spatial_sort_traits_adapter_3.h>
 
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
+#include <limits>
+#include <random>
 #include <unordered_map>
 #include <unordered_set>
 
@@ -38,7 +45,10 @@ struct CellSide {
 };
 
 using Cb = CGAL::Triangulation_cell_base_with_info_3<CellSide, Kernel, CGAL::Delaunay_triangulation_cell_base_3<Kernel>>;
-using Tds = CGAL::Triangulation_data_structure_3<Vb, Cb>;
+// The concurrent containers of Parallel_tag let insertions in disjoint slabs
+// create and delete cells at once (see insert_layers). No lock data
+// structure is given: CGAL's own operations on it stay sequential.
+using Tds = CGAL::Triangulation_data_structure_3<Vb, Cb, CGAL::Parallel_tag>;
 using Delaunay = CGAL::Delaunay_triangulation_3<Kernel, Tds>;
 using Point = Kernel::Point_3;
 using Vertex_handle = Delaunay::Vertex_handle;
@@ -71,7 +81,23 @@ struct TriangleKeyHash {
     }
 };
 
-enum class Verdict { inserted, small, filler, hidden, outside };
+enum class Verdict { inserted, small, filler, hidden, outside, deferred };
+
+// Where a parallel insertion may work: the cells whose four vertices are
+// finite with coordinate `axis` in [lo, hi). Null for sequential insertion.
+struct Region {
+    int axis = 0;
+    double lo = 0, hi = 0;
+    bool holds(const Point& p) const { return p[axis] >= lo && p[axis] < hi; }
+};
+
+// What one insertion needs of its own: the walk's start and the cavity.
+struct Scratch {
+    Cell_handle hint;
+    std::vector<Facet> boundary;
+    std::vector<Cell_handle> cells, touched, removed, kept;
+    std::minstd_rand random;
+};
 
 // Holds the triangulation and the surface while points are inserted.
 class ConditionalDelaunay {
@@ -114,31 +140,79 @@ public:
     // inserted. Each layer is spatially sorted (Hilbert order on random
     // rounds) and every walk starts from the previous point's cell, so a
     // point is found in a few steps.
+    //
+    // In parallel, and with the same result on any number of threads: the
+    // points are cut into slabs of equal count along the longest axis (their
+    // number depends on the points only). The even slabs are inserted at
+    // once, each by one task in sorted order, then the odd ones. A task
+    // works only on cells whose four vertices lie in its region: its slab
+    // and half of each idle neighbour, so no two tasks ever read a cell the
+    // other changes (a cell next to one of a task's cells shares three of
+    // its vertices, so it is no other task's). A point whose walk or cavity
+    // would leave the region is deferred, and the deferred points are then
+    // inserted one by one in their order. What a task does depends on its
+    // own region alone, never on the timing of the others.
     void insert_layers(InsertionResult& result)
     {
         int max_layer = 0;
         for (const OffsetPoint& p : points_) max_layer = std::max(max_layer, p.layer);
-        std::vector<std::vector<std::size_t>> by_layer(max_layer + 1);
-        for (size_t k = 0; k < points_.size(); ++k) by_layer[points_[k].layer].push_back(k);
         std::vector<Point> positions;
         positions.reserve(points_.size());
         for (const OffsetPoint& p : points_) positions.push_back(to_point(p.position));
+        const Slabs slabs = make_slabs(positions);
+        // Per layer and slab, the points in Hilbert order.
+        std::vector<std::vector<std::vector<std::size_t>>> by_layer(
+            max_layer + 1, std::vector<std::vector<std::size_t>>(slabs.count()));
+        for (size_t k = 0; k < points_.size(); ++k)
+            by_layer[points_[k].layer][slabs.of(positions[k])].push_back(k);
         using Traits = CGAL::Spatial_sort_traits_adapter_3<Kernel, CGAL::Pointer_property_map<Point>::type>;
         const Traits traits(CGAL::make_property_map(positions));
-        for (auto& layer : by_layer) CGAL::spatial_sort(layer.begin(), layer.end(), traits);
+        for (auto& layer : by_layer)
+            for (auto& slab : layer) CGAL::spatial_sort(slab.begin(), slab.end(), traits);
 
-        hint_ = dt_.infinite_vertex()->cell();
+        Scratch sequential;
+        tbb::enumerable_thread_specific<Scratch> scratch;
         verdict_.assign(points_.size(), Verdict::outside);
+        vertex_of_.assign(points_.size(), Vertex_handle());
         std::vector<char> done(points_.size(), 0);
+        std::vector<std::vector<std::size_t>> deferred(slabs.count());
+        std::vector<Cell_handle> start(slabs.count());
         for (int pass = 0; pass < std::max(1, params_.passes); ++pass) {
-            bool any = false;
-            for (int m = 1; m <= max_layer; ++m)
-                for (std::size_t k : by_layer[m]) {
-                    if (done[k]) continue;
-                    verdict_[k] = try_insert(static_cast<int32_t>(k), positions[k]);
-                    if (verdict_[k] == Verdict::inserted) done[k] = 1, any = true;
+            const auto inserted_before = std::count(done.begin(), done.end(), 1);
+            for (int m = 1; m <= max_layer; ++m) {
+                for (int parity = 0; parity < 2; ++parity) {
+                    // Each task's first walk starts where a sequential
+                    // locate puts the slab's first pending point.
+                    for (int s = parity; s < slabs.count(); s += 2)
+                        for (std::size_t k : by_layer[m][s])
+                            if (!done[k]) {
+                                start[s] = locate_start(k, positions[k]);
+                                break;
+                            }
+                    tbb::parallel_for(0, (slabs.count() - parity + 1) / 2, [&](int task) {
+                        const int s = parity + 2 * task;
+                        const Region region = slabs.region(s);
+                        Scratch& own = scratch.local();
+                        own.hint = start[s];
+                        own.random.seed(static_cast<unsigned>(s));
+                        deferred[s].clear();
+                        for (std::size_t k : by_layer[m][s]) {
+                            if (done[k]) continue;
+                            verdict_[k] = try_insert(static_cast<int32_t>(k), positions[k], &region, own);
+                            if (verdict_[k] == Verdict::deferred) deferred[s].push_back(k);
+                            done[k] = verdict_[k] == Verdict::inserted;
+                        }
+                    });
                 }
-            if (!any) break;
+                for (int s = 0; s < slabs.count(); ++s)
+                    for (std::size_t k : deferred[s]) {
+                        // The tasks may have taken the last hint's cell.
+                        if (k == deferred[s].front()) sequential.hint = locate_start(k, positions[k]);
+                        verdict_[k] = try_insert(static_cast<int32_t>(k), positions[k], nullptr, sequential);
+                        done[k] = verdict_[k] == Verdict::inserted;
+                    }
+            }
+            if (std::count(done.begin(), done.end(), 1) == inserted_before) break;
         }
         for (Verdict v : verdict_) {
             result.inserted += v == Verdict::inserted;
@@ -149,7 +223,10 @@ public:
         }
     }
 
-    // The inside cells as output.
+    // The inside cells as output, in an order that depends on the cells
+    // alone (not on where the concurrent containers put them): interior
+    // points numbered in the order of the offset points, tets sorted by
+    // their points.
     void output(InsertionResult& result)
     {
         result.quads = quads_;
@@ -158,28 +235,48 @@ public:
         result.source.resize(n_);
         for (int32_t i = 0; i < n_; ++i) result.source[i] = i;
         std::vector<int32_t> index(points_.size(), -1); // offset point -> output point
-        result.tets.reserve(dt_.number_of_finite_cells() / 2);
-        int64_t used = 0;
         for (auto c = dt_.finite_cells_begin(); c != dt_.finite_cells_end(); ++c) {
             if (c->info() != kInside) continue;
+            for (int i = 0; i < 4; ++i)
+                if (const int32_t id = c->vertex(i)->info(); id >= n_) index[id - n_] = 0;
+        }
+        int64_t used = 0;
+        for (size_t k = 0; k < points_.size(); ++k) {
+            if (index[k] < 0) continue;
+            index[k] = static_cast<int32_t>(result.points.size());
+            result.points.push_back(points_[k].position);
+            result.source.push_back(n_ + static_cast<int32_t>(k));
+            ++used;
+        }
+        struct Keyed {
+            uint64_t key; // the two smallest point ids
             Tet tet;
+        };
+        std::vector<Keyed> keyed;
+        keyed.reserve(dt_.number_of_finite_cells() / 2);
+        for (auto c = dt_.finite_cells_begin(); c != dt_.finite_cells_end(); ++c) {
+            if (c->info() != kInside) continue;
+            Keyed k;
             for (int i = 0; i < 4; ++i) {
                 const int32_t id = c->vertex(i)->info();
-                if (id < n_) {
-                    tet[i] = id;
-                    continue;
-                }
-                int32_t& out = index[id - n_];
-                if (out < 0) {
-                    out = static_cast<int32_t>(result.points.size());
-                    result.points.push_back(points_[id - n_].position);
-                    result.source.push_back(id);
-                    ++used;
-                }
-                tet[i] = out;
+                k.tet[i] = id < n_ ? id : index[id - n_];
             }
-            result.tets.push_back(tet); // CGAL cells are positively oriented
+            Tet s = k.tet;
+            std::sort(s.begin(), s.end());
+            k.key = uint64_t(uint32_t(s[0])) << 32 | uint32_t(s[1]);
+            keyed.push_back(k); // CGAL cells are positively oriented
         }
+        // Tets that share their two smallest points share an edge: few, and
+        // ordered by their other two.
+        tbb::parallel_sort(keyed.begin(), keyed.end(), [](const Keyed& a, const Keyed& b) {
+            if (a.key != b.key) return a.key < b.key;
+            Tet s = a.tet, t = b.tet;
+            std::sort(s.begin(), s.end());
+            std::sort(t.begin(), t.end());
+            return s < t;
+        });
+        result.tets.reserve(keyed.size());
+        for (const Keyed& k : keyed) result.tets.push_back(k.tet);
         result.unused = result.inserted - used;
     }
 
@@ -405,6 +502,107 @@ private:
         return barrier_.count(make_key(v[0], v[1], v[2])) != 0;
     }
 
+    // Slabs of equal point count along the longest axis of the points'
+    // bounding box: about 16k points each, an even number, at least 2.
+    struct Slabs {
+        int axis = 0;
+        std::vector<double> bounds; // count() + 1 increasing values
+        int count() const { return static_cast<int>(bounds.size()) - 1; }
+        int of(const Point& p) const
+        {
+            const auto it = std::upper_bound(bounds.begin() + 1, bounds.end() - 1, p[axis]);
+            return static_cast<int>(it - bounds.begin()) - 1;
+        }
+        double middle(int s) const { return 0.5 * (bounds[s] + bounds[s + 1]); }
+        // Slab s and the halves of its neighbours next to it.
+        Region region(int s) const
+        {
+            constexpr double kInfinity = std::numeric_limits<double>::infinity();
+            return {axis, s == 0 ? -kInfinity : middle(s - 1), s + 1 == count() ? kInfinity : middle(s + 1)};
+        }
+    };
+
+    static Slabs make_slabs(const std::vector<Point>& positions)
+    {
+        Slabs slabs;
+        if (positions.empty()) {
+            slabs.bounds = {0.0, 0.0, 0.0};
+            return slabs;
+        }
+        double lo[3], hi[3];
+        for (int a = 0; a < 3; ++a) lo[a] = hi[a] = positions.front()[a];
+        for (const Point& p : positions)
+            for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], p[a]), hi[a] = std::max(hi[a], p[a]);
+        for (int a = 1; a < 3; ++a)
+            if (hi[a] - lo[a] > hi[slabs.axis] - lo[slabs.axis]) slabs.axis = a;
+        constexpr size_t kPointsPerSlab = 1 << 19;
+        const int count = 2 * static_cast<int>(std::clamp<size_t>(positions.size() / (2 * kPointsPerSlab), 2, 32));
+        std::vector<double> x;
+        x.reserve(positions.size());
+        for (const Point& p : positions) x.push_back(p[slabs.axis]);
+        std::sort(x.begin(), x.end());
+        slabs.bounds.push_back(lo[slabs.axis] - 1.0);
+        for (int s = 1; s < count; ++s) slabs.bounds.push_back(x[x.size() * s / count]);
+        slabs.bounds.push_back(hi[slabs.axis] + 1.0);
+        return slabs;
+    }
+
+    // Whether a task with `region` may work on cell c.
+    bool owns(const Region* region, Cell_handle c) const
+    {
+        if (!region) return true;
+        for (int i = 0; i < 4; ++i) {
+            const Vertex_handle v = c->vertex(i);
+            if (dt_.is_infinite(v) || !region->holds(v->point())) return false;
+        }
+        return true;
+    }
+
+    // The cell that holds offset point k, found by CGAL's locate from the
+    // cell of its surface node (vertices live for good; their cell is a
+    // living one next to them).
+    Cell_handle locate_start(std::size_t k, const Point& p) const
+    {
+        Delaunay::Locate_type lt;
+        int li, lj;
+        return dt_.locate(p, lt, li, lj, surface_vertex_[points_[k].generator]->cell());
+    }
+
+    // A visibility walk (facets tried from a random one) from own.hint to
+    // the cell that holds p, through cells of the region only; a null
+    // handle when it would leave the region, meet a point on a vertex or
+    // take too long. Steps across a facet only when p is strictly beyond
+    // it (never the facet just crossed, which p is strictly before), so it
+    // ends in a cell that holds p (in it or on its boundary).
+    Cell_handle walk(const Point& p, Cell_handle from, const Region* region, Scratch& own) const
+    {
+        Cell_handle c = from;
+        if (c == Cell_handle() || !owns(region, c)) return {};
+        Cell_handle previous;
+        for (int step = 0; step < 10000; ++step) {
+            const int first = static_cast<int>(own.random() % 4);
+            bool moved = false;
+            for (int r = 0; r < 4 && !moved; ++r) {
+                const int i = (first + r) % 4;
+                const Cell_handle next = c->neighbor(i);
+                if (next == previous) continue;
+                const Point* q[4];
+                for (int j = 0; j < 4; ++j) q[j] = j == i ? &p : &c->vertex(j)->point();
+                if (CGAL::orientation(*q[0], *q[1], *q[2], *q[3]) != CGAL::NEGATIVE) continue;
+                if (!owns(region, next)) return {};
+                previous = c;
+                c = next;
+                moved = true;
+            }
+            if (!moved) {
+                for (int j = 0; j < 4; ++j)
+                    if (c->vertex(j)->point() == p) return {};
+                return c;
+            }
+        }
+        return {};
+    }
+
     // Algorithm 5 for point k, with the insertion cavity confined to the
     // inside: the cells whose circumspheres hold the point, reached from
     // the cell that contains it without crossing the surface. A Delaunay
@@ -427,47 +625,85 @@ private:
     // point outside the surface or on a vertex; a cavity that would swallow
     // a vertex; (ii) a filler point that would join a surface point (paper
     // section 2.3).
-    Verdict try_insert(int32_t k, const Point& p)
+    //
+    // With a region (parallel insertion) only the region's cells are
+    // marked or changed; the point is deferred when its walk or its cavity
+    // would need another cell. The neighbours of the region's cells are
+    // only read: their vertices and side never change while tasks run.
+    Verdict try_insert(int32_t k, const Point& p, const Region* region, Scratch& own)
     {
         const OffsetPoint& op = points_[k];
-        Delaunay::Locate_type lt;
-        int li, lj;
-        const Cell_handle c = dt_.locate(p, lt, li, lj, hint_);
-        hint_ = c;
-        if (lt == Delaunay::VERTEX || lt == Delaunay::OUTSIDE_CONVEX_HULL || lt == Delaunay::OUTSIDE_AFFINE_HULL ||
-            c->info() != kInside)
-            return Verdict::outside;
+        Cell_handle c;
+        if (region) {
+            // The walk starts next to the point of the layer before from the
+            // same surface node (or next to the node), else where the last
+            // one ended: a walk from one point to the next in Hilbert order
+            // often leaves the region through the big outer cells.
+            Cell_handle from = own.hint;
+            const Vertex_handle before =
+                k > 0 && points_[k - 1].generator == op.generator && points_[k - 1].layer == op.layer - 1
+                    ? vertex_of_[k - 1]
+                    : op.layer == 1 ? surface_vertex_[op.generator] : Vertex_handle();
+            if (before != Vertex_handle() && region->holds(before->point())) from = before->cell();
+            c = walk(p, from, region, own);
+            if (c == Cell_handle() && from != own.hint) c = walk(p, own.hint, region, own);
+            if (c == Cell_handle()) return Verdict::deferred;
+            own.hint = c;
+            if (c->info() != kInside) return Verdict::outside;
+        } else {
+            Delaunay::Locate_type lt;
+            int li, lj;
+            c = dt_.locate(p, lt, li, lj, own.hint);
+            own.hint = c;
+            if (lt == Delaunay::VERTEX || lt == Delaunay::OUTSIDE_CONVEX_HULL ||
+                lt == Delaunay::OUTSIDE_AFFINE_HULL || c->info() != kInside)
+                return Verdict::outside;
+        }
 
         // Breadth-first over the conflicting inside cells, marked in
         // conflict; the cells tested and found not in conflict are marked on
-        // boundary until the search is over.
-        cells_.clear();
-        touched_.clear();
+        // boundary until the search is over (the region's cells only).
+        std::vector<Cell_handle>& cells = own.cells;
+        cells.clear();
+        own.touched.clear();
         c->tds_data().mark_in_conflict();
-        cells_.push_back(c);
-        for (size_t i = 0; i < cells_.size(); ++i) {
-            const Cell_handle cc = cells_[i];
+        cells.push_back(c);
+        bool leaves_region = false;
+        for (size_t i = 0; i < cells.size() && !leaves_region; ++i) {
+            const Cell_handle cc = cells[i];
             for (int j = 0; j < 4; ++j) {
                 const Cell_handle nb = cc->neighbor(j);
                 if (!nb->tds_data().is_clear()) continue;
-                if (nb->info() == kInside && dt_.side_of_sphere(nb, p, true) == CGAL::ON_BOUNDED_SIDE) {
+                const bool conflict = nb->info() == kInside && dt_.side_of_sphere(nb, p, true) == CGAL::ON_BOUNDED_SIDE;
+                if (!owns(region, nb)) {
+                    if (conflict) {
+                        leaves_region = true;
+                        break;
+                    }
+                    continue;
+                }
+                if (conflict) {
                     nb->tds_data().mark_in_conflict();
-                    cells_.push_back(nb);
+                    cells.push_back(nb);
                 } else {
                     nb->tds_data().mark_on_boundary();
-                    touched_.push_back(nb);
+                    own.touched.push_back(nb);
                 }
             }
         }
-        for (const Cell_handle& t : touched_) t->tds_data().clear();
+        for (const Cell_handle& t : own.touched) t->tds_data().clear();
+        if (leaves_region) {
+            for (const Cell_handle& t : cells) t->tds_data().clear();
+            return Verdict::deferred;
+        }
 
         const double limit = 6.0 * params_.min_volume_fraction * op.spacing * op.spacing * op.spacing;
         Verdict verdict = Verdict::inserted;
         for (int round = 0;; ++round) {
-            const bool shrunk = shrink_cavity(p, c, limit, verdict);
+            const bool shrunk = shrink_cavity(p, c, limit, verdict, own);
             if (verdict != Verdict::inserted) break;
             if (!shrunk) {
-                verdict = check_cavity(op);
+                verdict = check_cavity(op, own);
                 break;
             }
             if (round == 32) {
@@ -476,13 +712,23 @@ private:
             }
         }
         if (verdict != Verdict::inserted) {
-            for (const Cell_handle& t : cells_) t->tds_data().clear();
+            for (const Cell_handle& t : own.cells) t->tds_data().clear();
             return verdict;
         }
+        // CGAL's own insertion takes the small-hole path for cavities of up
+        // to 128 facets (a fixed table instead of a recursive walk); both
+        // expect the cavity marked in conflict, as it is here. Both write
+        // the facing neighbour link of each cell around the cavity (a
+        // neighbour of a region's cell is no other task's) and the cell of
+        // each boundary vertex (in the region).
         const Vertex_handle v =
-            dt_.insert_in_hole(p, cells_.begin(), cells_.end(), boundary_.front().first, boundary_.front().second);
+            dt_.tds().is_small_hole(own.boundary.size())
+                ? dt_._insert_in_small_hole(p, own.cells, own.boundary)
+                : dt_.insert_in_hole(p, own.cells.begin(), own.cells.end(), own.boundary.front().first,
+                                     own.boundary.front().second);
         v->info() = n_ + k;
-        hint_ = v->cell();
+        vertex_of_[k] = v;
+        own.hint = v->cell();
         return Verdict::inserted;
     }
 
@@ -491,15 +737,16 @@ private:
     // tet below `limit` (6 V) or one with a protected edge, and keeps the part still connected to the
     // cell `start` that holds the point. True when cells were taken out;
     // `verdict` turns to a refusal when `start` itself would go.
-    bool shrink_cavity(const Point& p, Cell_handle start, double limit, Verdict& verdict)
+    bool shrink_cavity(const Point& p, Cell_handle start, double limit, Verdict& verdict, Scratch& own) const
     {
-        boundary_.clear();
-        removed_.clear();
-        for (const Cell_handle& cc : cells_) {
+        std::vector<Cell_handle>& cells = own.cells;
+        own.boundary.clear();
+        own.removed.clear();
+        for (const Cell_handle& cc : cells) {
             bool bad = false;
             for (int j = 0; j < 4; ++j) {
                 if (cc->neighbor(j)->tds_data().is_in_conflict()) continue;
-                boundary_.emplace_back(cc, j);
+                own.boundary.emplace_back(cc, j);
                 if (bad) continue;
                 const Point* q[4];
                 int32_t ids[3], n = 0;
@@ -517,10 +764,10 @@ private:
                 // without one, the exact predicate decides.
                 bad = v6 < limit || (limit <= 0 && CGAL::orientation(*q[0], *q[1], *q[2], *q[3]) != CGAL::POSITIVE);
             }
-            if (bad) removed_.push_back(cc);
+            if (bad) own.removed.push_back(cc);
         }
-        if (removed_.empty()) return false;
-        for (const Cell_handle& cc : removed_) {
+        if (own.removed.empty()) return false;
+        for (const Cell_handle& cc : own.removed) {
             if (cc == start) {
                 verdict = Verdict::hidden;
                 return true;
@@ -530,38 +777,40 @@ private:
         // The part connected to start, found by re-marking it on boundary.
         size_t kept = 0;
         start->tds_data().mark_on_boundary();
-        std::swap(cells_, scratch_);
-        cells_.clear();
-        cells_.push_back(start);
-        for (size_t i = 0; i < cells_.size(); ++i)
+        std::swap(cells, own.kept);
+        cells.clear();
+        cells.push_back(start);
+        for (size_t i = 0; i < cells.size(); ++i)
             for (int j = 0; j < 4; ++j) {
-                const Cell_handle nb = cells_[i]->neighbor(j);
+                const Cell_handle nb = cells[i]->neighbor(j);
                 if (!nb->tds_data().is_in_conflict()) continue;
                 nb->tds_data().mark_on_boundary();
-                cells_.push_back(nb);
+                cells.push_back(nb);
             }
-        for (const Cell_handle& cc : scratch_)
+        for (const Cell_handle& cc : own.kept)
             if (cc->tds_data().is_in_conflict()) cc->tds_data().clear(); // cut off
-        for (const Cell_handle& cc : cells_) cc->tds_data().mark_in_conflict(), ++kept;
+        for (const Cell_handle& cc : cells) cc->tds_data().mark_in_conflict(), ++kept;
         return kept > 0;
     }
 
     // The refusals that no shrinking cures, on the final cavity.
-    Verdict check_cavity(const OffsetPoint& op)
+    // The points on the cavity's boundary are stamped with a value no other
+    // check has used; a task stamps only points of its region.
+    Verdict check_cavity(const OffsetPoint& op, const Scratch& own)
     {
-        ++stamp_value_;
-        for (const Facet& f : boundary_) {
+        const uint32_t stamp = ++stamp_value_;
+        for (const Facet& f : own.boundary) {
             int32_t ids[3], j = 0;
             for (int i = 0; i < 4; ++i) {
                 if (i == f.second) continue;
                 ids[j] = f.first->vertex(i)->info();
-                stamp_[ids[j++]] = stamp_value_;
+                stamp_[ids[j++]] = stamp;
             }
             if (op.filler && (ids[0] < n_ || ids[1] < n_ || ids[2] < n_)) return Verdict::filler;
         }
-        for (const Cell_handle& cc : cells_)
+        for (const Cell_handle& cc : own.cells)
             for (int i = 0; i < 4; ++i)
-                if (stamp_[cc->vertex(i)->info()] != stamp_value_) return Verdict::hidden;
+                if (stamp_[cc->vertex(i)->info()] != stamp) return Verdict::hidden;
         return Verdict::inserted;
     }
 
@@ -587,11 +836,9 @@ private:
     std::vector<std::array<int32_t, 4>> quads_;
     std::vector<std::pair<int32_t, int32_t>> quad_triangles_;
     std::vector<Verdict> verdict_;
-    std::vector<uint32_t> stamp_; // per point id: last check_cavity that saw it on the cavity boundary
-    uint32_t stamp_value_ = 0;
-    Cell_handle hint_;
-    std::vector<Facet> boundary_;
-    std::vector<Cell_handle> cells_, touched_, removed_, scratch_;
+    std::vector<Vertex_handle> vertex_of_; // per offset point, once inserted
+    std::vector<uint32_t> stamp_;          // per point id: the last check_cavity that saw it on the boundary
+    std::atomic<uint32_t> stamp_value_{0};
 };
 
 } // namespace

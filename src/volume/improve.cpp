@@ -296,7 +296,7 @@ double star_quality(TetEditor& ed, int32_t v)
 // the layer points of two wall nodes and the nodes lie in one plane) is the
 // one most in need of a move; a new position must beat the old smallest
 // aspect ratio by 1e-9, so it never keeps a tet flatter than that.
-bool smooth_point(TetEditor& ed, int32_t v)
+bool smooth_point(TetEditor& ed, int32_t v, const Vec3& across = {})
 {
     const double start = star_quality(ed, v);
     if (!(start > 0)) return false;
@@ -328,6 +328,9 @@ bool smooth_point(TetEditor& ed, int32_t v)
     }
     ed.point(v) = origin;
 
+    // A layer point moves at right angles to `across` only.
+    auto in_plane = [&](const Vec3& x) { return x - dot(x - origin, across) * across; };
+    gradient -= dot(gradient, across) * across;
     std::vector<Vec3> candidates;
     const Vec3 direction = normalized(gradient);
     if (norm2(direction) > 0)
@@ -338,8 +341,8 @@ bool smooth_point(TetEditor& ed, int32_t v)
         for (int32_t w : ed.tet(t))
             if (w != v) centroid += ed.point(w), ++count;
     centroid /= count;
-    candidates.push_back(centroid);
-    candidates.push_back(0.5 * (origin + centroid));
+    candidates.push_back(in_plane(centroid));
+    candidates.push_back(in_plane(0.5 * (origin + centroid)));
 
     double best = start;
     Vec3 best_position = origin;
@@ -707,7 +710,8 @@ FlipCounts flip_volume_criterion(TetMesh& mesh, int sweeps)
     return counts;
 }
 
-SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double threshold, int sweeps)
+SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double threshold, int sweeps,
+                            const std::vector<Vec3>& across)
 {
     SliverCounts counts;
     TetEditor ed(mesh);
@@ -730,7 +734,7 @@ SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double thresh
             }
             const Tet tet = ed.tet(id);
             for (int32_t v : tet)
-                if (v >= surface_points && smooth_point(ed, v)) {
+                if (v >= surface_points && smooth_point(ed, v, size_t(v) < across.size() ? across[v] : Vec3{})) {
                     ++counts.moves, ++changed;
                     const std::vector<int32_t>& star = ed.at(v);
                     next.insert(next.end(), star.begin(), star.end());

@@ -84,8 +84,12 @@ struct SliverCounts {
 // the point's incident tets and keeps all of them positively oriented
 // (line search along the gradient of the worst incident tet's aspect ratio,
 // and the star's centroid). At most `sweeps` rounds. Surface points never
-// move, so the boundary is bit-identical.
-SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double threshold, int sweeps);
+// move, so the boundary is bit-identical. A point v with a non-zero unit
+// vector `across[v]` (a layer point's direction from its surface node)
+// moves only at right angles to it, so it stays on its layer; an empty
+// `across` leaves every interior point free.
+SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double threshold, int sweeps,
+                            const std::vector<Vec3>& across = {});
 
 // A tet below `threshold` whose four vertices are surface points (what
 // remove_slivers cannot touch) gets one of its edges that is not a surface

@@ -77,7 +77,7 @@ struct VolumeResult {
     int64_t sliver_flips = 0, sliver_moves = 0;
     int64_t sliver_splits = 0;   // edges of surface-point slivers split by a new interior point
     double seconds_points = 0, seconds_insertion = 0, seconds_classify = 0, seconds_flips = 0,
-           seconds_slivers = 0, seconds_total = 0;
+           seconds_slivers = 0, seconds_quality = 0, seconds_checks = 0, seconds_total = 0;
 };
 
 // Thrown when the mesh cannot conform to the surface: some surface triangles

@@ -1,6 +1,7 @@
 // The quality measures of paper section 3 on tets whose values are known in
-// closed form.
+// closed form, and the sliver removal's moves of layer points.
 
+#include "volume/improve.h"
 #include "volume/quality.h"
 
 #include <gtest/gtest.h>
@@ -56,6 +57,52 @@ TEST(TetQuality, ASliverHasASmallDihedralAngle)
     EXPECT_GT(angle, 0.0);
     EXPECT_LT(angle, 1.0);
     EXPECT_LT(tet_aspect_ratio(a, b, c, d), 0.01);
+}
+
+// The cube [0, 1]^3 as the cone from one interior point over its twelve
+// boundary triangles, the point far off the centre so that its star is poor.
+TetMesh cube_star(const Vec3& inside)
+{
+    TetMesh mesh;
+    for (int i = 0; i < 8; ++i) mesh.points.push_back({double(i & 1), double((i >> 1) & 1), double((i >> 2) & 1)});
+    mesh.points.push_back(inside);
+    const int faces[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+    for (const auto& f : faces)
+        for (const Triangle& t : {Triangle{f[0], f[1], f[2]}, Triangle{f[0], f[2], f[3]}}) {
+            Tet tet{t[0], t[1], t[2], 8};
+            const auto& p = mesh.points;
+            if (tet_volume6(p[tet[0]], p[tet[1]], p[tet[2]], p[tet[3]]) < 0) std::swap(tet[0], tet[1]);
+            mesh.tets.push_back(tet);
+            mesh.boundary_faces.push_back(t);
+        }
+    return mesh;
+}
+
+// A layer point moves only at right angles to its direction from its
+// surface node, so its distance from the wall stays; a free point moves in
+// any direction. Both moves raise the star's worst aspect ratio.
+TEST(SliverRemoval, ALayerPointMovesOnlyAcrossItsNormal)
+{
+    const Vec3 start{0.2, 0.3, 0.15};
+    TetMesh free_mesh = cube_star(start);
+    const double before = quality_report(free_mesh).min_aspect_ratio;
+    const SliverCounts free_counts = remove_slivers(free_mesh, 8, 0.9, 5);
+    ASSERT_GT(free_counts.moves, 0);
+    EXPECT_GT(std::abs(free_mesh.points[8].z - start.z), 0.05);
+    EXPECT_GT(quality_report(free_mesh).min_aspect_ratio, before);
+
+    TetMesh layer_mesh = cube_star(start);
+    std::vector<Vec3> across(9);
+    across[8] = {0, 0, 1};
+    const SliverCounts layer_counts = remove_slivers(layer_mesh, 8, 0.9, 5, across);
+    ASSERT_GT(layer_counts.moves, 0);
+    EXPECT_NEAR(layer_mesh.points[8].z, start.z, 1e-12);
+    EXPECT_GT(std::hypot(layer_mesh.points[8].x - start.x, layer_mesh.points[8].y - start.y), 0.05);
+    EXPECT_GT(quality_report(layer_mesh).min_aspect_ratio, before);
+    for (const Tet& t : layer_mesh.tets) {
+        const auto& p = layer_mesh.points;
+        EXPECT_GT(tet_volume6(p[t[0]], p[t[1]], p[t[2]], p[t[3]]), 0);
+    }
 }
 
 } // namespace
