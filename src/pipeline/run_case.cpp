@@ -192,6 +192,7 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
                             {"surface_nodes", nodes},
                             {"first_layer_anisotropy_median", v.first_layer_anisotropy_median},
                             {"inserted_points", v.inserted_points},
+                            {"deferred_points", v.deferred_points},
                             {"offset_points", v.offset_points},
                             {"flips_3_2", v.flips_32},
                             {"flips_2_3", v.flips_23},

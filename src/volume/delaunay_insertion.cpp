@@ -15,7 +15,6 @@
 
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <atomic>
@@ -206,6 +205,7 @@ public:
                 }
                 for (int s = 0; s < slabs.count(); ++s)
                     for (std::size_t k : deferred[s]) {
+                        ++result.deferred;
                         // The tasks may have taken the last hint's cell.
                         if (k == deferred[s].front()) sequential.hint = locate_start(k, positions[k]);
                         verdict_[k] = try_insert(static_cast<int32_t>(k), positions[k], nullptr, sequential);
@@ -248,12 +248,15 @@ public:
             result.source.push_back(n_ + static_cast<int32_t>(k));
             ++used;
         }
+        // Tets by their smallest point (a counting sort), then by their
+        // other points within each of these small groups.
         struct Keyed {
-            uint64_t key; // the two smallest point ids
-            Tet tet;
+            Tet sorted, tet;
+            bool operator<(const Keyed& o) const { return sorted < o.sorted; }
         };
         std::vector<Keyed> keyed;
         keyed.reserve(dt_.number_of_finite_cells() / 2);
+        std::vector<int32_t> start(result.points.size() + 1, 0);
         for (auto c = dt_.finite_cells_begin(); c != dt_.finite_cells_end(); ++c) {
             if (c->info() != kInside) continue;
             Keyed k;
@@ -261,22 +264,20 @@ public:
                 const int32_t id = c->vertex(i)->info();
                 k.tet[i] = id < n_ ? id : index[id - n_];
             }
-            Tet s = k.tet;
-            std::sort(s.begin(), s.end());
-            k.key = uint64_t(uint32_t(s[0])) << 32 | uint32_t(s[1]);
+            k.sorted = k.tet;
+            std::sort(k.sorted.begin(), k.sorted.end());
+            ++start[k.sorted[0] + 1];
             keyed.push_back(k); // CGAL cells are positively oriented
         }
-        // Tets that share their two smallest points share an edge: few, and
-        // ordered by their other two.
-        tbb::parallel_sort(keyed.begin(), keyed.end(), [](const Keyed& a, const Keyed& b) {
-            if (a.key != b.key) return a.key < b.key;
-            Tet s = a.tet, t = b.tet;
-            std::sort(s.begin(), s.end());
-            std::sort(t.begin(), t.end());
-            return s < t;
-        });
-        result.tets.reserve(keyed.size());
-        for (const Keyed& k : keyed) result.tets.push_back(k.tet);
+        for (size_t v = 0; v + 1 < start.size(); ++v) start[v + 1] += start[v];
+        std::vector<Keyed> placed(keyed.size());
+        for (const Keyed& k : keyed) placed[start[k.sorted[0]]++] = k;
+        for (size_t v = 0, begin = 0; v + 1 < start.size(); ++v) {
+            std::sort(placed.begin() + begin, placed.begin() + start[v]);
+            begin = start[v];
+        }
+        result.tets.resize(placed.size());
+        for (size_t t = 0; t < placed.size(); ++t) result.tets[t] = placed[t].tet;
         result.unused = result.inserted - used;
     }
 

@@ -33,6 +33,7 @@ struct InsertionResult {
     int64_t rejected_surface = 0; // the point does not see a surface triangle bounding its cavity
     int64_t rejected_other = 0;   // outside the surface or on a vertex
     int64_t unused = 0; // inserted interior points with no inside cell
+    int64_t deferred = 0; // points handed from a parallel task to the sequential pass, once a pass
     double seconds_insertion = 0, seconds_classify = 0;
 };
 

@@ -219,6 +219,7 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
     result.seconds_insertion = ins.seconds_insertion;
     result.seconds_classify = ins.seconds_classify;
     result.inserted_points = ins.inserted;
+    result.deferred_points = ins.deferred;
     result.rejected_small = ins.rejected_small;
     result.rejected_filler = ins.rejected_filler;
     result.rejected_surface = ins.rejected_surface;

@@ -65,6 +65,8 @@ struct VolumeResult {
     int64_t rejected_surface = 0; // final rejections for not seeing a surface triangle of the cavity
     int64_t rejected_other = 0;  // outside the surface, or on a vertex
     int64_t unused_points = 0;
+    int64_t deferred_points = 0; // points a parallel task handed to the sequential pass (its walk
+                                 // or cavity left the task's region), counted once a pass
     int64_t insertion_retries = 0; // re-runs of the insertion with failed quad diagonals protected
     int64_t surface_quads = 0;   // surface quads split the other way by Delaunay, re-triangulated
     int64_t quad_flips = 0;      // of those, the ones whose surface diagonal was flipped to the

@@ -18,6 +18,7 @@
 #include "volume/volume_mesh.h"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <algorithm>
 #include <cmath>
@@ -234,6 +235,28 @@ TEST_P(VolumePhantom, NoTetBelowTheQualityFloor)
         GTEST_SKIP() << "pending (issue 5): " << q.below_0_02 << " tets below aspect ratio 0.02, min "
                      << q.min_aspect_ratio;
     EXPECT_GE(q.min_aspect_ratio, 0.02);
+}
+
+// The layers are inserted by parallel tasks in slabs (delaunay_insertion.h):
+// the tasks insert most points themselves, and one thread and two give the
+// same mesh, point for point and tet for tet.
+TEST(VolumeParallel, TheTasksInsertMostPointsAndOneOrTwoThreadsGiveTheSameMesh)
+{
+    const Prepared p = prepare("torus", 0.5, 0.25, 4);
+    VolumeResult results[2];
+    for (int threads : {1, 2}) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        results[threads - 1] = build_volume_mesh(p.surface, p.size, volume_params(p));
+    }
+    const VolumeResult &one = results[0], &two = results[1];
+    std::cout << "[ parallel insertion ] " << one.inserted_points << " points inserted, " << one.deferred_points
+              << " deferred to the sequential pass; " << one.mesh.tets.size() << " tets\n";
+    ASSERT_GT(one.inserted_points, 5000);
+    EXPECT_LT(one.deferred_points, one.inserted_points / 4);
+    EXPECT_EQ(one.deferred_points, two.deferred_points);
+    EXPECT_EQ(one.mesh.points, two.mesh.points);
+    EXPECT_EQ(one.mesh.tets, two.mesh.tets);
+    EXPECT_EQ(one.after_slivers.min_aspect_ratio, two.after_slivers.min_aspect_ratio);
 }
 
 INSTANTIATE_TEST_SUITE_P(Phantoms, VolumePhantom,
