@@ -503,8 +503,13 @@ private:
         return barrier_.count(make_key(v[0], v[1], v[2])) != 0;
     }
 
-    // Slabs of equal point count along the longest axis of the points'
-    // bounding box: about 16k points each, an even number, at least 2.
+    // Four slabs of equal point count along the longest axis of the points'
+    // bounding box: two tasks at once, each region half the box. More slabs
+    // give more tasks but narrower regions: on the torus of a 768 box six
+    // deferred 17.7% of the points (the first layers' cavities span the
+    // tube) against 1.5% with four, and the mesh before flips had 12.84% of
+    // its tets below 0.1 against 12.48% (12.39% inserted in one sequence).
+    static constexpr int kSlabs = 4;
     struct Slabs {
         int axis = 0;
         std::vector<double> bounds; // count() + 1 increasing values
@@ -536,8 +541,7 @@ private:
             for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], p[a]), hi[a] = std::max(hi[a], p[a]);
         for (int a = 1; a < 3; ++a)
             if (hi[a] - lo[a] > hi[slabs.axis] - lo[slabs.axis]) slabs.axis = a;
-        constexpr size_t kPointsPerSlab = 1 << 19;
-        const int count = 2 * static_cast<int>(std::clamp<size_t>(positions.size() / (2 * kPointsPerSlab), 2, 32));
+        const int count = kSlabs;
         std::vector<double> x;
         x.reserve(positions.size());
         for (const Point& p : positions) x.push_back(p[slabs.axis]);

@@ -296,7 +296,7 @@ double star_quality(TetEditor& ed, int32_t v)
 // the layer points of two wall nodes and the nodes lie in one plane) is the
 // one most in need of a move; a new position must beat the old smallest
 // aspect ratio by 1e-9, so it never keeps a tet flatter than that.
-bool smooth_point(TetEditor& ed, int32_t v, const Vec3& across = {})
+bool smooth_point(TetEditor& ed, int32_t v, const LayerBound& layer = {})
 {
     const double start = star_quality(ed, v);
     if (!(start > 0)) return false;
@@ -328,13 +328,17 @@ bool smooth_point(TetEditor& ed, int32_t v, const Vec3& across = {})
     }
     ed.point(v) = origin;
 
-    // A layer point moves at right angles to `across` only.
-    auto in_plane = [&](const Vec3& x) { return x - dot(x - origin, across) * across; };
-    gradient -= dot(gradient, across) * across;
+    // A layer point stays within its slack of its layer.
+    auto in_plane = [&](const Vec3& x) {
+        if (!(layer.slack > 0)) return x;
+        const double off = dot(x - layer.home, layer.normal);
+        return x - (off - std::clamp(off, -layer.slack, layer.slack)) * layer.normal;
+    };
     std::vector<Vec3> candidates;
     const Vec3 direction = normalized(gradient);
     if (norm2(direction) > 0)
-        for (double step : {0.2, 0.1, 0.05, 0.025, 0.0125, 0.006}) candidates.push_back(origin + step * mean_length * direction);
+        for (double step : {0.2, 0.1, 0.05, 0.025, 0.0125, 0.006})
+            candidates.push_back(in_plane(origin + step * mean_length * direction));
     Vec3 centroid;
     int count = 0;
     for (int32_t t : ed.at(v))
@@ -711,7 +715,7 @@ FlipCounts flip_volume_criterion(TetMesh& mesh, int sweeps)
 }
 
 SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double threshold, int sweeps,
-                            const std::vector<Vec3>& across)
+                            const std::vector<LayerBound>& layers)
 {
     SliverCounts counts;
     TetEditor ed(mesh);
@@ -734,7 +738,7 @@ SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double thresh
             }
             const Tet tet = ed.tet(id);
             for (int32_t v : tet)
-                if (v >= surface_points && smooth_point(ed, v, size_t(v) < across.size() ? across[v] : Vec3{})) {
+                if (v >= surface_points && smooth_point(ed, v, size_t(v) < layers.size() ? layers[v] : LayerBound{})) {
                     ++counts.moves, ++changed;
                     const std::vector<int32_t>& star = ed.at(v);
                     next.insert(next.end(), star.begin(), star.end());

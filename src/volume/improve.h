@@ -84,12 +84,17 @@ struct SliverCounts {
 // the point's incident tets and keeps all of them positively oriented
 // (line search along the gradient of the worst incident tet's aspect ratio,
 // and the star's centroid). At most `sweeps` rounds. Surface points never
-// move, so the boundary is bit-identical. A point v with a non-zero unit
-// vector `across[v]` (a layer point's direction from its surface node)
-// moves only at right angles to it, so it stays on its layer; an empty
-// `across` leaves every interior point free.
+// move, so the boundary is bit-identical. A point v with layers[v].slack
+// > 0 (a layer point) stays within that distance of the plane through
+// layers[v].home at right angles to layers[v].normal (its direction from
+// its surface node), so it stays on its layer; an empty `layers`, or a zero
+// slack, leaves a point free.
+struct LayerBound {
+    Vec3 home, normal; // the point's place on its layer, the unit normal of the layer there
+    double slack = 0;  // how far it may leave the layer along the normal
+};
 SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double threshold, int sweeps,
-                            const std::vector<Vec3>& across = {});
+                            const std::vector<LayerBound>& layers = {});
 
 // A tet below `threshold` whose four vertices are surface points (what
 // remove_slivers cannot touch) gets one of its edges that is not a surface

@@ -309,14 +309,18 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
         result.after_flips = quality_report(mesh);
         result.seconds_quality += seconds_since(t0);
         t0 = Clock::now();
-        // Layermaking points keep their distance from the wall: the layers
-        // are what the method is for (paper section 2.3).
-        std::vector<Vec3> across(mesh.points.size());
+        // Layermaking points stay within a tenth of their layer's spacing
+        // (their distance from the node over their layer) of their
+        // distance from the wall: the layers are what the method is for
+        // (paper section 2.3).
+        std::vector<LayerBound> layers(mesh.points.size());
         for (size_t p = n; p < mesh.points.size(); ++p)
-            if (!result.point_filler[p] && result.point_layer[p] >= 1 && result.point_layer[p] <= layermaking)
-                across[p] = normalized(mesh.points[p] - surface.points[result.point_generator[p]]);
+            if (!result.point_filler[p] && result.point_layer[p] >= 1 && result.point_layer[p] <= layermaking) {
+                const Vec3 from_node = mesh.points[p] - surface.points[result.point_generator[p]];
+                layers[p] = {mesh.points[p], normalized(from_node), 0.1 * norm(from_node) / result.point_layer[p]};
+            }
         const SliverCounts slivers =
-            remove_slivers(mesh, n, params.sliver_aspect_ratio, params.sliver_sweeps, across);
+            remove_slivers(mesh, n, params.sliver_aspect_ratio, params.sliver_sweeps, layers);
         result.sliver_flips = slivers.flips, result.sliver_moves = slivers.moves;
         // Slivers of surface points: a split keeps the surface, so it comes
         // first where its tets reach the floor; a peel changes the surface
