@@ -717,6 +717,7 @@ FlipCounts flip_volume_criterion(TetMesh& mesh, int sweeps)
 SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double threshold, int sweeps,
                             const std::vector<LayerBound>& layers)
 {
+    constexpr double kFreeBelow = 0.1;
     SliverCounts counts;
     TetEditor ed(mesh);
     Flipper flipper(ed, Criterion::quality);
@@ -750,6 +751,24 @@ SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double thresh
         std::sort(next.begin(), next.end());
         next.erase(std::unique(next.begin(), next.end()), next.end());
         visit = std::move(next);
+    }
+    // Last, a layer point of a tet still below 0.1 may leave its layer as
+    // far as the move needs: quality first where it is poor.
+    for (int round = 0; round < 3 && !layers.empty(); ++round) {
+        int64_t changed = 0;
+        const size_t end = ed.size();
+        for (size_t t = 0; t < end; ++t) {
+            const int32_t id = static_cast<int32_t>(t);
+            if (!ed.alive(id) || ed.aspect(ed.tet(id)) >= kFreeBelow) continue;
+            if (flipper.improve_tet(id, flips)) {
+                ++changed;
+                continue;
+            }
+            const Tet tet = ed.tet(id);
+            for (int32_t v : tet)
+                if (v >= surface_points && smooth_point(ed, v)) ++counts.moves, ++changed;
+        }
+        if (changed == 0) break;
     }
     counts.flips = flips.flips_32 + flips.flips_23 + flips.flips_44;
     ed.commit();

@@ -88,7 +88,9 @@ struct SliverCounts {
 // > 0 (a layer point) stays within that distance of the plane through
 // layers[v].home at right angles to layers[v].normal (its direction from
 // its surface node), so it stays on its layer; an empty `layers`, or a zero
-// slack, leaves a point free.
+// slack, leaves a point free. Then, for at most 3 rounds, the tets still
+// below 0.1 get flips and moves with every interior point free: a layer
+// point leaves its layer only where the mesh is poor.
 struct LayerBound {
     Vec3 home, normal; // the point's place on its layer, the unit normal of the layer there
     double slack = 0;  // how far it may leave the layer along the normal
