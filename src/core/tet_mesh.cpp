@@ -117,6 +117,38 @@ TetFaceAdjacency tet_face_adjacency(const TetMesh& mesh)
     return result;
 }
 
+void sort_tets_by_smallest_point(std::vector<Tet>& tets, size_t point_count)
+{
+    std::vector<int64_t> start(point_count + 1, 0);
+    for (const Tet& t : tets) ++start[std::min({t[0], t[1], t[2], t[3]}) + 1];
+    for (size_t v = 0; v < point_count; ++v) start[v + 1] += start[v];
+    std::vector<Tet> placed(tets.size());
+    {
+        std::vector<int64_t> fill(start.begin(), start.end() - 1);
+        for (const Tet& t : tets) placed[fill[std::min({t[0], t[1], t[2], t[3]})]++] = t;
+    }
+    // Within a group, by the tet's points sorted (the smallest is the
+    // group's): a handful of tets each, keyed once.
+    struct Keyed {
+        Tet sorted, tet;
+        bool operator<(const Keyed& o) const { return sorted < o.sorted; }
+    };
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, point_count, 4096), [&](const tbb::blocked_range<size_t>& range) {
+        std::vector<Keyed> group;
+        for (size_t v = range.begin(); v != range.end(); ++v) {
+            if (start[v + 1] - start[v] < 2) continue;
+            group.clear();
+            for (int64_t t = start[v]; t < start[v + 1]; ++t) {
+                Keyed& k = group.emplace_back(Keyed{placed[t], placed[t]});
+                std::sort(k.sorted.begin(), k.sorted.end());
+            }
+            std::sort(group.begin(), group.end());
+            for (size_t i = 0; i < group.size(); ++i) placed[start[v] + i] = group[i].tet;
+        }
+    });
+    tets = std::move(placed);
+}
+
 TetMeshFacts tet_mesh_facts(const TetMesh& mesh)
 {
     return tet_mesh_facts(mesh, tet_face_adjacency(mesh));

@@ -56,6 +56,14 @@ struct TetFaceAdjacency {
 // Throws std::out_of_range when a tet names a point the mesh does not have.
 TetFaceAdjacency tet_face_adjacency(const TetMesh& mesh);
 
+// Orders `tets` (points 0 .. point_count - 1) by their smallest point, a
+// counting sort, then within each such group by their other points in
+// increasing order: the order depends on the set of tets alone, not on the
+// order they came in. Three of a tet's four faces have its smallest point as
+// theirs, so matching faces by their smallest point (tet_face_adjacency, the
+// exporters) then walks the tets in order. Each tet keeps its orientation.
+void sort_tets_by_smallest_point(std::vector<Tet>& tets, size_t point_count);
+
 // Checks the facts every exported mesh must have. Linear in the mesh size.
 TetMeshFacts tet_mesh_facts(const TetMesh& mesh);
 // The same with the adjacency of mesh.tets at hand (an exporter given the

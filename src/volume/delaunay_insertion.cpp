@@ -248,36 +248,16 @@ public:
             result.source.push_back(n_ + static_cast<int32_t>(k));
             ++used;
         }
-        // Tets by their smallest point (a counting sort), then by their
-        // other points within each of these small groups.
-        struct Keyed {
-            Tet sorted, tet;
-            bool operator<(const Keyed& o) const { return sorted < o.sorted; }
-        };
-        std::vector<Keyed> keyed;
-        keyed.reserve(dt_.number_of_finite_cells() / 2);
-        std::vector<int32_t> start(result.points.size() + 1, 0);
+        result.tets.reserve(dt_.number_of_finite_cells() / 2);
         for (auto c = dt_.finite_cells_begin(); c != dt_.finite_cells_end(); ++c) {
             if (c->info() != kInside) continue;
-            Keyed k;
+            Tet& tet = result.tets.emplace_back(); // CGAL cells are positively oriented
             for (int i = 0; i < 4; ++i) {
                 const int32_t id = c->vertex(i)->info();
-                k.tet[i] = id < n_ ? id : index[id - n_];
+                tet[i] = id < n_ ? id : index[id - n_];
             }
-            k.sorted = k.tet;
-            std::sort(k.sorted.begin(), k.sorted.end());
-            ++start[k.sorted[0] + 1];
-            keyed.push_back(k); // CGAL cells are positively oriented
         }
-        for (size_t v = 0; v + 1 < start.size(); ++v) start[v + 1] += start[v];
-        std::vector<Keyed> placed(keyed.size());
-        for (const Keyed& k : keyed) placed[start[k.sorted[0]]++] = k;
-        for (size_t v = 0, begin = 0; v + 1 < start.size(); ++v) {
-            std::sort(placed.begin() + begin, placed.begin() + start[v]);
-            begin = start[v];
-        }
-        result.tets.resize(placed.size());
-        for (size_t t = 0; t < placed.size(); ++t) result.tets[t] = placed[t].tet;
+        sort_tets_by_smallest_point(result.tets, result.points.size());
         result.unused = result.inserted - used;
     }
 

@@ -6,7 +6,11 @@
 #include <array>
 #include <cmath>
 #include <map>
+#include <numeric>
 #include <vector>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 namespace scalemesh {
 namespace {
@@ -42,6 +46,7 @@ public:
     }
 
     size_t size() const { return tets_.size(); }
+    size_t point_count() const { return mesh_.points.size(); }
     bool alive(int32_t t) const { return alive_[t] != 0; }
     const Tet& tet(int32_t t) const { return tets_[t]; }
     const Vec3& point(int32_t v) const { return mesh_.points[v]; }
@@ -688,6 +693,25 @@ std::vector<int32_t> flip_surface_quads(const SurfaceMesh& surface, const std::v
     return left;
 }
 
+namespace {
+
+// Whether each tet of [begin, end) has aspect ratio below `below`, in
+// parallel: the tets are only read, so the sequential loops that use the
+// marks decide as if they had computed each shape in turn.
+std::vector<char> below_marks(const TetEditor& ed, size_t begin, size_t end, double below)
+{
+    std::vector<char> marks(end - begin, 0);
+    tbb::parallel_for(tbb::blocked_range<size_t>(begin, end, 1 << 13), [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t t = range.begin(); t != range.end(); ++t) {
+            const int32_t id = static_cast<int32_t>(t);
+            marks[t - begin] = ed.alive(id) && ed.aspect(ed.tet(id)) < below;
+        }
+    });
+    return marks;
+}
+
+} // namespace
+
 FlipCounts flip_volume_criterion(TetMesh& mesh, int sweeps)
 {
     // The first sweep visits every tet; each later one only the tets the
@@ -696,6 +720,7 @@ FlipCounts flip_volume_criterion(TetMesh& mesh, int sweeps)
     // an old tet at least three times smaller than the new ones: in practice
     // a sliver or a needle, so the search starts from the tets with aspect
     // ratio below kSearchBelow only (the well-shaped majority is skipped).
+    // No point moves, so a tet's shape, marked before the sweep, holds.
     constexpr double kSearchBelow = 0.3;
     FlipCounts counts;
     TetEditor ed(mesh);
@@ -704,9 +729,10 @@ FlipCounts flip_volume_criterion(TetMesh& mesh, int sweeps)
     for (int sweep = 0; sweep < sweeps; ++sweep) {
         const size_t end = ed.size();
         if (begin == end) break;
+        const std::vector<char> search = below_marks(ed, begin, end, kSearchBelow);
         for (size_t t = begin; t < end; ++t) {
             const int32_t id = static_cast<int32_t>(t);
-            if (ed.alive(id) && ed.aspect(ed.tet(id)) < kSearchBelow) flipper.improve_tet(id, counts);
+            if (search[t - begin] && ed.alive(id)) flipper.improve_tet(id, counts);
         }
         begin = end;
     }
@@ -714,39 +740,100 @@ FlipCounts flip_volume_criterion(TetMesh& mesh, int sweeps)
     return counts;
 }
 
+namespace {
+
+// The rounds of remove_slivers over one editor. A tet marked at or above
+// the threshold (marked in parallel by `mark`) none of whose points has
+// moved since is still so: a round skips it without computing its shape,
+// and decides as if it had.
+class SliverRounds {
+public:
+    SliverRounds(TetEditor& ed, int32_t surface_points)
+        : ed_(ed), flipper_(ed, Criterion::quality), surface_points_(surface_points)
+    {
+    }
+
+    // Marks the tets at or above `below`, as they are now.
+    void mark(double below)
+    {
+        below_ = below_marks(ed_, 0, ed_.size(), below);
+        marked_below_ = below;
+        moved_.assign(ed_.point_count(), 0);
+    }
+
+    // One round over `visit`: each living tet below `below` gets a flip
+    // that raises the worst aspect ratio of the tets it replaces, else
+    // moves of its interior points (a layer point within layers[v] when
+    // `layers` has it). Returns the changes made. With `next`, adds the
+    // tets to visit again: the ones still below and those at moved points
+    // (the tets made in the round are the caller's to add).
+    int64_t round(const std::vector<int32_t>& visit, double below, const std::vector<LayerBound>& layers,
+                  std::vector<int32_t>* next)
+    {
+        int64_t changed = 0;
+        for (int32_t id : visit) {
+            if (!ed_.alive(id) || skip(id, below) || ed_.aspect(ed_.tet(id)) >= below) continue;
+            if (flipper_.improve_tet(id, flips_)) {
+                ++changed;
+                continue;
+            }
+            const Tet tet = ed_.tet(id);
+            for (int32_t v : tet)
+                if (v >= surface_points_ && smooth_point(ed_, v, size_t(v) < layers.size() ? layers[v] : LayerBound{})) {
+                    ++moves_, ++changed;
+                    if (size_t(v) < moved_.size()) moved_[v] = 1;
+                    if (!next) continue;
+                    const std::vector<int32_t>& star = ed_.at(v);
+                    next->insert(next->end(), star.begin(), star.end());
+                }
+            if (next && ed_.alive(id)) next->push_back(id);
+        }
+        return changed;
+    }
+
+    SliverCounts counts() const { return {flips_.flips_32 + flips_.flips_23 + flips_.flips_44, moves_}; }
+
+private:
+    bool skip(int32_t id, double below) const
+    {
+        if (size_t(id) >= below_.size() || below_[id] || below > marked_below_) return false;
+        for (int32_t v : ed_.tet(id))
+            if (size_t(v) < moved_.size() && moved_[v]) return false;
+        return true;
+    }
+
+    TetEditor& ed_;
+    Flipper flipper_;
+    int32_t surface_points_;
+    FlipCounts flips_;
+    int64_t moves_ = 0;
+    std::vector<char> below_; // per tet id when marked: below the marked threshold
+    double marked_below_ = 0;
+    std::vector<char> moved_; // per point: moved since the marks
+};
+
+} // namespace
+
 SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double threshold, int sweeps,
                             const std::vector<LayerBound>& layers)
 {
     constexpr double kFreeBelow = 0.1;
-    SliverCounts counts;
     TetEditor ed(mesh);
-    Flipper flipper(ed, Criterion::quality);
-    FlipCounts flips;
+    SliverRounds rounds(ed, surface_points);
+    rounds.mark(std::max(threshold, kFreeBelow));
     // The first sweep visits every tet; each later one the tets still below
     // the threshold, the tets made since, and the tets at moved points (the
     // only ones whose shape can have changed).
-    std::vector<int32_t> visit(ed.size());
-    for (size_t t = 0; t < visit.size(); ++t) visit[t] = static_cast<int32_t>(t);
+    auto every_tet = [&] {
+        std::vector<int32_t> all(ed.size());
+        std::iota(all.begin(), all.end(), 0);
+        return all;
+    };
+    std::vector<int32_t> visit = every_tet();
     for (int sweep = 0; sweep < sweeps && !visit.empty(); ++sweep) {
-        int64_t changed = 0;
         const size_t made_from = ed.size();
         std::vector<int32_t> next;
-        for (int32_t id : visit) {
-            if (!ed.alive(id) || ed.aspect(ed.tet(id)) >= threshold) continue;
-            if (flipper.improve_tet(id, flips)) {
-                ++changed;
-                continue;
-            }
-            const Tet tet = ed.tet(id);
-            for (int32_t v : tet)
-                if (v >= surface_points && smooth_point(ed, v, size_t(v) < layers.size() ? layers[v] : LayerBound{})) {
-                    ++counts.moves, ++changed;
-                    const std::vector<int32_t>& star = ed.at(v);
-                    next.insert(next.end(), star.begin(), star.end());
-                }
-            if (ed.alive(id)) next.push_back(id);
-        }
-        if (changed == 0) break;
+        if (rounds.round(visit, threshold, layers, &next) == 0) break;
         for (size_t t = made_from; t < ed.size(); ++t) next.push_back(static_cast<int32_t>(t));
         std::sort(next.begin(), next.end());
         next.erase(std::unique(next.begin(), next.end()), next.end());
@@ -754,25 +841,10 @@ SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double thresh
     }
     // Last, a layer point of a tet still below 0.1 may leave its layer as
     // far as the move needs: quality first where it is poor.
-    for (int round = 0; round < 3 && !layers.empty(); ++round) {
-        int64_t changed = 0;
-        const size_t end = ed.size();
-        for (size_t t = 0; t < end; ++t) {
-            const int32_t id = static_cast<int32_t>(t);
-            if (!ed.alive(id) || ed.aspect(ed.tet(id)) >= kFreeBelow) continue;
-            if (flipper.improve_tet(id, flips)) {
-                ++changed;
-                continue;
-            }
-            const Tet tet = ed.tet(id);
-            for (int32_t v : tet)
-                if (v >= surface_points && smooth_point(ed, v)) ++counts.moves, ++changed;
-        }
-        if (changed == 0) break;
-    }
-    counts.flips = flips.flips_32 + flips.flips_23 + flips.flips_44;
+    for (int round = 0; round < 3 && !layers.empty(); ++round)
+        if (rounds.round(every_tet(), kFreeBelow, {}, nullptr) == 0) break;
     ed.commit();
-    return counts;
+    return rounds.counts();
 }
 
 int64_t split_surface_slivers(TetMesh& mesh, int32_t surface_points, double threshold, double at_least)

@@ -8,36 +8,57 @@
 
 namespace scalemesh {
 
+namespace {
+
+// Twice the area times the outward unit normal of each face of (a, b, c, d),
+// face k as in kTetFaces.
+std::array<Vec3, 4> face_normals(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d)
+{
+    return {cross(c - b, d - b), cross(d - a, c - a), cross(b - a, d - a), cross(c - a, b - a)};
+}
+
+struct Shape {
+    double aspect_ratio, min_dihedral_deg;
+};
+
+// Both measures from one set of face normals. with_dihedral false leaves
+// the angle out (the aspect ratio alone is what the improvement loops ask).
+Shape tet_shape(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, bool with_dihedral)
+{
+    const double volume6 = tet_volume6(a, b, c, d);
+    const std::array<Vec3, 4> normal = face_normals(a, b, c, d);
+    const std::array<double, 4> length = {norm(normal[0]), norm(normal[1]), norm(normal[2]), norm(normal[3])};
+    const double area = 0.5 * (length[3] + length[2] + length[1] + length[0]);
+    const double l2 = std::max({norm2(b - a), norm2(c - a), norm2(d - a), norm2(c - b), norm2(d - b), norm2(d - c)});
+    Shape shape{0, 0};
+    if (area > 0 && l2 > 0) {
+        const double volume = volume6 / 6.0, r_in = 3.0 * volume / area;
+        shape.aspect_ratio = 2.0 * std::sqrt(6.0) * r_in / std::sqrt(l2);
+    }
+    if (!with_dihedral || !(volume6 > 0) || !(length[0] > 0 && length[1] > 0 && length[2] > 0 && length[3] > 0))
+        return shape;
+    // The dihedral angle at the edge where faces k and l meet is pi minus
+    // the angle between their outward normals: cos = -n_k . n_l. The
+    // smallest angle has the largest cosine, so one acos per tet is enough.
+    Vec3 unit[4];
+    for (int k = 0; k < 4; ++k) unit[k] = normal[k] / length[k];
+    double largest_cosine = -1.0;
+    for (int k = 0; k < 4; ++k)
+        for (int l = k + 1; l < 4; ++l) largest_cosine = std::max(largest_cosine, -dot(unit[k], unit[l]));
+    shape.min_dihedral_deg = std::acos(std::clamp(largest_cosine, -1.0, 1.0)) * 180.0 / M_PI;
+    return shape;
+}
+
+} // namespace
+
 double tet_aspect_ratio(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d)
 {
-    const double volume = tet_volume6(a, b, c, d) / 6.0;
-    const double area = 0.5 * (norm(cross(b - a, c - a)) + norm(cross(b - a, d - a)) +
-                               norm(cross(c - a, d - a)) + norm(cross(c - b, d - b)));
-    const double l2 = std::max({norm2(b - a), norm2(c - a), norm2(d - a), norm2(c - b), norm2(d - b), norm2(d - c)});
-    if (!(area > 0) || !(l2 > 0)) return 0;
-    const double r_in = 3.0 * volume / area;
-    return 2.0 * std::sqrt(6.0) * r_in / std::sqrt(l2);
+    return tet_shape(a, b, c, d, false).aspect_ratio;
 }
 
 double tet_min_dihedral_deg(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d)
 {
-    // The dihedral angle at the edge where faces k and l meet is pi minus the
-    // angle between their outward normals: cos = -n_k . n_l. The smallest
-    // angle has the largest cosine, so one acos per tet is enough.
-    if (!(tet_volume6(a, b, c, d) > 0)) return 0;
-    const Vec3 v[4] = {a, b, c, d};
-    Vec3 normal[4];
-    for (int k = 0; k < 4; ++k) {
-        const Vec3 &p = v[kTetFaces[k][0]], &q = v[kTetFaces[k][1]], &r = v[kTetFaces[k][2]];
-        const Vec3 n = cross(q - p, r - p);
-        const double length = norm(n);
-        if (!(length > 0)) return 0;
-        normal[k] = n / length;
-    }
-    double largest_cosine = -1.0;
-    for (int k = 0; k < 4; ++k)
-        for (int l = k + 1; l < 4; ++l) largest_cosine = std::max(largest_cosine, -dot(normal[k], normal[l]));
-    return std::acos(std::clamp(largest_cosine, -1.0, 1.0)) * 180.0 / M_PI;
+    return tet_shape(a, b, c, d, true).min_dihedral_deg;
 }
 
 QualityReport quality_report(const TetMesh& mesh)
@@ -60,9 +81,10 @@ QualityReport quality_report(const TetMesh& mesh)
         for (size_t i = b * block; i < end; ++i) {
             const Tet& t = mesh.tets[i];
             const Vec3 &a = mesh.points[t[0]], &bb = mesh.points[t[1]], &c = mesh.points[t[2]], &d = mesh.points[t[3]];
-            const double q = tet_aspect_ratio(a, bb, c, d);
+            const Shape shape = tet_shape(a, bb, c, d, true);
+            const double q = shape.aspect_ratio;
             p.min_q = std::min(p.min_q, q);
-            p.min_dihedral = std::min(p.min_dihedral, tet_min_dihedral_deg(a, bb, c, d));
+            p.min_dihedral = std::min(p.min_dihedral, shape.min_dihedral_deg);
             p.sum += q;
             p.low += q < 0.1;
             p.below_0_02 += q < kQualityFloor;

@@ -37,8 +37,8 @@ void check_params(const VolumeParams& p)
 }
 
 // Renumbers the interior points (ids n and up) in Hilbert order and sorts the
-// tets by their smallest point id, so that what is
-// near in space is near in memory: matching faces here and in the exporters
+// tets by their smallest point id (sort_tets_by_smallest_point), so that what
+// is near in space is near in memory: matching faces here and in the exporters
 // touches memory in order, and the solver's matrix has a smaller bandwidth.
 // Surface points keep their ids. Deterministic (median Hilbert sort).
 void renumber_for_locality(VolumeResult& result, int32_t n)
@@ -68,18 +68,9 @@ void renumber_for_locality(VolumeResult& result, int32_t n)
     permute(result.point_layer);
     permute(result.point_filler);
 
-    // Tets by their smallest point id (a counting sort): three of a tet's
-    // four faces have that point as their smallest, so matching faces by
-    // their smallest point then walks the tets in order.
-    std::vector<int32_t> start(count + 1, 0);
-    for (Tet& t : mesh.tets) {
+    for (Tet& t : mesh.tets)
         for (int32_t& v : t) v = new_id[v];
-        ++start[std::min({t[0], t[1], t[2], t[3]}) + 1];
-    }
-    for (size_t r = 0; r < count; ++r) start[r + 1] += start[r];
-    std::vector<Tet> tets(mesh.tets.size());
-    for (const Tet& t : mesh.tets) tets[start[std::min({t[0], t[1], t[2], t[3]})]++] = t;
-    mesh.tets = std::move(tets);
+    sort_tets_by_smallest_point(mesh.tets, count);
 }
 
 // Names up to `limit` ids for an error message.

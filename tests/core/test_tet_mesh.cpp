@@ -68,6 +68,30 @@ TEST(TetFaceAdjacency, SameAnswerForAnyThreadCountAndTetOrder)
     expect_matches_brute_force(box, two);
 }
 
+TEST(SortTetsBySmallestPoint, TheOrderDependsOnTheTetsAloneAndEachTetKeepsItsOrientation)
+{
+    const TetMesh box = box_of_cubes(12, 10, 9);
+    std::vector<Tet> first = box.tets, second = box.tets;
+    std::mt19937 random(11);
+    std::shuffle(first.begin(), first.end(), random);
+    std::shuffle(second.begin(), second.end(), random);
+    ASSERT_NE(first, second);
+    sort_tets_by_smallest_point(first, box.points.size());
+    tbb::task_arena(1).execute([&] { sort_tets_by_smallest_point(second, box.points.size()); });
+    EXPECT_EQ(first, second);
+    auto sorted = [](Tet t) {
+        std::sort(t.begin(), t.end());
+        return t;
+    };
+    for (size_t i = 1; i < first.size(); ++i)
+        EXPECT_LT(sorted(first[i - 1]), sorted(first[i])) << "tets " << i - 1 << " and " << i;
+    // The same tets, each with its own point order (so its orientation).
+    std::vector<Tet> before = box.tets, after = first;
+    std::sort(before.begin(), before.end());
+    std::sort(after.begin(), after.end());
+    EXPECT_EQ(before, after);
+}
+
 TEST(TetFaceAdjacency, AFaceOfThreeTetsIsOversharedAndFailsTheFacts)
 {
     TetMesh box = box_of_cubes(1, 1, 1);
