@@ -6,11 +6,13 @@
 #include <array>
 #include <cmath>
 #include <map>
+#include <mutex>
 #include <numeric>
 #include <vector>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 namespace scalemesh {
 namespace {
@@ -710,9 +712,138 @@ std::vector<char> below_marks(const TetEditor& ed, size_t begin, size_t end, dou
     return marks;
 }
 
-} // namespace
+// Improvement in parallel. The mesh is cut into parts, each a mesh of its
+// own (its tets, with point ids of its own), improved at once, then put
+// back. In a part, a flip takes only an edge whose tets close around it or
+// a face with two tets (as at the surface), and only a point whose whole
+// star is in the part moves (pinned otherwise), so parts touch no tet and
+// no moving point of one another and every move and flip is one the whole
+// mesh could make. What a part cannot do is left to a second pass over the
+// tets near the cuts, made a part too.
+struct Part {
+    TetMesh mesh;                // the part's points and tets, its own ids
+    std::vector<int32_t> global; // part point -> mesh point
+    std::vector<char> pinned;    // part point: a surface point, or one with a tet outside the part
+};
 
-FlipCounts flip_volume_criterion(TetMesh& mesh, int sweeps)
+// How many slabs: one per 100k tets, up to 4. It depends on the mesh
+// alone, so the result is the same on any number of threads.
+int slab_count(const TetMesh& mesh)
+{
+    return static_cast<int>(std::clamp<size_t>(mesh.tets.size() / 100000, 1, 4));
+}
+
+// Each point's slab: `count` slabs of equal count along the longest side of
+// the points' bounding box (ties by id).
+std::vector<int32_t> point_slabs(const std::vector<Vec3>& points, int count)
+{
+    const size_t n = points.size();
+    Vec3 lo = points[0], hi = points[0];
+    for (const Vec3& p : points) {
+        lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
+        hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
+    }
+    const Vec3 size = hi - lo;
+    const int axis = size.x >= size.y && size.x >= size.z ? 0 : size.y >= size.z ? 1 : 2;
+    auto along = [&](int32_t v) { return axis == 0 ? points[v].x : axis == 1 ? points[v].y : points[v].z; };
+    std::vector<int32_t> order(n);
+    std::iota(order.begin(), order.end(), 0);
+    tbb::parallel_sort(order.begin(), order.end(), [&](int32_t a, int32_t b) {
+        const double x = along(a), y = along(b);
+        return x != y ? x < y : a < b;
+    });
+    std::vector<int32_t> slab(n);
+    for (size_t i = 0; i < n; ++i) slab[order[i]] = static_cast<int32_t>(i * count / n);
+    return slab;
+}
+
+// Runs improve(part, r) on parts 0 .. count - 1 at once, part r made of the
+// tets t with part_of[t] == r (-1: in none), then puts the parts' tets and
+// points back: the tets of no part first, in order, then each part's.
+template <class Improve>
+void improve_in_parts(TetMesh& mesh, int32_t surface_points, const std::vector<int32_t>& part_of, int count,
+                      Improve&& improve)
+{
+    const size_t n = mesh.points.size();
+    std::vector<int32_t> degree(n, 0), local(n, -1), inside(n, 0);
+    for (const Tet& t : mesh.tets)
+        for (int32_t v : t) ++degree[v];
+    std::vector<Part> parts(count);
+    std::vector<Tet> kept;
+    std::vector<std::vector<int32_t>> ids(count);
+    for (size_t t = 0; t < mesh.tets.size(); ++t) {
+        if (part_of[t] < 0) kept.push_back(mesh.tets[t]);
+        else ids[part_of[t]].push_back(static_cast<int32_t>(t));
+    }
+    for (int r = 0; r < count; ++r) {
+        Part& part = parts[r];
+        part.mesh.tets.reserve(ids[r].size());
+        for (int32_t t : ids[r]) {
+            Tet tet;
+            for (int i = 0; i < 4; ++i) {
+                const int32_t v = mesh.tets[t][i];
+                if (local[v] < 0) {
+                    local[v] = static_cast<int32_t>(part.global.size());
+                    part.global.push_back(v);
+                    part.mesh.points.push_back(mesh.points[v]);
+                }
+                ++inside[v];
+                tet[i] = local[v];
+            }
+            part.mesh.tets.push_back(tet);
+        }
+        part.pinned.resize(part.global.size());
+        for (size_t l = 0; l < part.global.size(); ++l) {
+            const int32_t v = part.global[l];
+            part.pinned[l] = v < surface_points || inside[v] < degree[v];
+            local[v] = -1, inside[v] = 0;
+        }
+    }
+    tbb::parallel_for(0, count, [&](int r) { improve(parts[r], r); });
+    for (Part& part : parts) {
+        for (const Tet& t : part.mesh.tets)
+            kept.push_back({part.global[t[0]], part.global[t[1]], part.global[t[2]], part.global[t[3]]});
+        for (size_t l = 0; l < part.global.size(); ++l)
+            if (!part.pinned[l]) mesh.points[part.global[l]] = part.mesh.points[l];
+        part.mesh = TetMesh{};
+    }
+    mesh.tets = std::move(kept);
+    mesh.tet_fields.clear();
+}
+
+// Improves the mesh in slabs at once, then the tets near the cuts: those
+// with at least `cut_points` points of a tet across slabs. A flip a slab
+// could not make has an edge of such a tet (two such points), a move it
+// could not make such a point (one).
+template <class Improve>
+void improve_in_slabs(TetMesh& mesh, int32_t surface_points, int cut_points, Improve&& improve)
+{
+    const int count = slab_count(mesh);
+    std::vector<int32_t> part_of(mesh.tets.size(), 0);
+    if (count > 1) {
+        const std::vector<int32_t> slab = point_slabs(mesh.points, count);
+        std::vector<char> cut(mesh.points.size(), 0);
+        for (size_t t = 0; t < mesh.tets.size(); ++t) {
+            const Tet& tet = mesh.tets[t];
+            const int32_t s = slab[tet[0]];
+            if (slab[tet[1]] == s && slab[tet[2]] == s && slab[tet[3]] == s) {
+                part_of[t] = s;
+            } else {
+                part_of[t] = -1;
+                for (int32_t v : tet) cut[v] = 1;
+            }
+        }
+        improve_in_parts(mesh, surface_points, part_of, count, improve);
+        part_of.resize(mesh.tets.size());
+        for (size_t t = 0; t < mesh.tets.size(); ++t) {
+            const Tet& tet = mesh.tets[t];
+            part_of[t] = cut[tet[0]] + cut[tet[1]] + cut[tet[2]] + cut[tet[3]] >= cut_points ? 0 : -1;
+        }
+    }
+    improve_in_parts(mesh, surface_points, part_of, 1, improve);
+}
+
+FlipCounts flip_sweeps(TetMesh& mesh, int sweeps)
 {
     // The first sweep visits every tet; each later one only the tets the
     // previous sweep made, since a flip changes the rings of the edges and
@@ -740,6 +871,25 @@ FlipCounts flip_volume_criterion(TetMesh& mesh, int sweeps)
     return counts;
 }
 
+FlipCounts operator+(FlipCounts a, const FlipCounts& b)
+{
+    return {a.flips_32 + b.flips_32, a.flips_23 + b.flips_23, a.flips_44 + b.flips_44};
+}
+
+} // namespace
+
+FlipCounts flip_volume_criterion(TetMesh& mesh, int sweeps)
+{
+    FlipCounts counts;
+    std::mutex adding;
+    improve_in_slabs(mesh, 0, 2, [&](Part& part, int) {
+        const FlipCounts made = flip_sweeps(part.mesh, sweeps);
+        const std::lock_guard<std::mutex> lock(adding);
+        counts = counts + made;
+    });
+    return counts;
+}
+
 namespace {
 
 // The rounds of remove_slivers over one editor. A tet marked at or above
@@ -748,8 +898,9 @@ namespace {
 // and decides as if it had.
 class SliverRounds {
 public:
-    SliverRounds(TetEditor& ed, int32_t surface_points)
-        : ed_(ed), flipper_(ed, Criterion::quality), surface_points_(surface_points)
+    // pinned[v]: point v may not move.
+    SliverRounds(TetEditor& ed, const std::vector<char>& pinned)
+        : ed_(ed), flipper_(ed, Criterion::quality), pinned_(pinned)
     {
     }
 
@@ -779,7 +930,7 @@ public:
             }
             const Tet tet = ed_.tet(id);
             for (int32_t v : tet)
-                if (v >= surface_points_ && smooth_point(ed_, v, size_t(v) < layers.size() ? layers[v] : LayerBound{})) {
+                if (!pinned_[v] && smooth_point(ed_, v, size_t(v) < layers.size() ? layers[v] : LayerBound{})) {
                     ++moves_, ++changed;
                     if (size_t(v) < moved_.size()) moved_[v] = 1;
                     if (!next) continue;
@@ -804,7 +955,7 @@ private:
 
     TetEditor& ed_;
     Flipper flipper_;
-    int32_t surface_points_;
+    const std::vector<char>& pinned_;
     FlipCounts flips_;
     int64_t moves_ = 0;
     std::vector<char> below_; // per tet id when marked: below the marked threshold
@@ -812,14 +963,14 @@ private:
     std::vector<char> moved_; // per point: moved since the marks
 };
 
-} // namespace
-
-SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double threshold, int sweeps,
-                            const std::vector<LayerBound>& layers)
+// The rounds of remove_slivers with the points of `pinned` held;
+// free_rounds for the last rounds with layer points free.
+SliverCounts sliver_rounds(TetMesh& mesh, const std::vector<char>& pinned, double threshold, int sweeps,
+                           const std::vector<LayerBound>& layers, bool free_rounds)
 {
     constexpr double kFreeBelow = 0.1;
     TetEditor ed(mesh);
-    SliverRounds rounds(ed, surface_points);
+    SliverRounds rounds(ed, pinned);
     rounds.mark(std::max(threshold, kFreeBelow));
     // The first sweep visits every tet; each later one the tets still below
     // the threshold, the tets made since, and the tets at moved points (the
@@ -841,10 +992,28 @@ SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double thresh
     }
     // Last, a layer point of a tet still below 0.1 may leave its layer as
     // far as the move needs: quality first where it is poor.
-    for (int round = 0; round < 3 && !layers.empty(); ++round)
+    for (int round = 0; round < 3 && free_rounds; ++round)
         if (rounds.round(every_tet(), kFreeBelow, {}, nullptr) == 0) break;
     ed.commit();
     return rounds.counts();
+}
+
+} // namespace
+
+SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double threshold, int sweeps,
+                            const std::vector<LayerBound>& layers)
+{
+    SliverCounts counts;
+    std::mutex adding;
+    improve_in_slabs(mesh, surface_points, 1, [&](Part& part, int) {
+        std::vector<LayerBound> part_layers;
+        if (!layers.empty())
+            for (int32_t v : part.global) part_layers.push_back(size_t(v) < layers.size() ? layers[v] : LayerBound{});
+        const SliverCounts made = sliver_rounds(part.mesh, part.pinned, threshold, sweeps, part_layers, !layers.empty());
+        const std::lock_guard<std::mutex> lock(adding);
+        counts.flips += made.flips, counts.moves += made.moves;
+    });
+    return counts;
 }
 
 int64_t split_surface_slivers(TetMesh& mesh, int32_t surface_points, double threshold, double at_least)

@@ -70,6 +70,9 @@ struct FlipCounts {
 // boundary faces stay the same, every new tet is positively oriented, and
 // the union of the tets is unchanged (so is the total volume, to round-off).
 // mesh.tet_fields are cleared (they no longer match the tets).
+// From 200k tets on, the mesh is cut into up to four slabs (one per 100k
+// tets) improved at once, then the tets near the cuts (the .cpp); the
+// result depends on the mesh alone, not on the number of threads.
 FlipCounts flip_volume_criterion(TetMesh& mesh, int sweeps);
 
 struct SliverCounts {
@@ -90,7 +93,8 @@ struct SliverCounts {
 // its surface node), so it stays on its layer; an empty `layers`, or a zero
 // slack, leaves a point free. Then, for at most 3 rounds, the tets still
 // below 0.1 get flips and moves with every interior point free: a layer
-// point leaves its layer only where the mesh is poor.
+// point leaves its layer only where the mesh is poor. In slabs at once, as
+// flip_volume_criterion, with the same result on any number of threads.
 struct LayerBound {
     Vec3 home, normal; // the point's place on its layer, the unit normal of the layer there
     double slack = 0;  // how far it may leave the layer along the normal
