@@ -61,10 +61,10 @@ int main(int argc, char** argv)
     // writer builds it first. Both are timed, and the adjacency on its own.
     const TetFaceAdjacency* adjacency = &run.volume->adjacency;
     rows.push_back({"face adjacency alone", seconds([&] { (void)tet_face_adjacency(mesh); })});
-    rows.push_back({"polyMesh ascii", seconds([&] { write_polymesh(mesh, dir / "ascii", {.binary = false, .scale = 1e-3, .adjacency = adjacency}); })});
-    rows.push_back({"polyMesh binary", seconds([&] { write_polymesh(mesh, dir / "binary", {.binary = true, .scale = 1e-3, .adjacency = adjacency}); })});
-    rows.push_back({"polyMesh ascii, own adjacency", seconds([&] { write_polymesh(mesh, dir / "ascii2", {.binary = false, .scale = 1e-3}); })});
-    rows.push_back({"polyMesh binary, own adjacency", seconds([&] { write_polymesh(mesh, dir / "binary2", {.binary = true, .scale = 1e-3}); })});
+    rows.push_back({"polyMesh ascii", seconds([&] { write_polymesh(mesh, dir / "ascii", {.binary = false, .scale = 1e-3, .patch_types = {}, .adjacency = adjacency}); })});
+    rows.push_back({"polyMesh binary", seconds([&] { write_polymesh(mesh, dir / "binary", {.binary = true, .scale = 1e-3, .patch_types = {}, .adjacency = adjacency}); })});
+    rows.push_back({"polyMesh ascii, own adjacency", seconds([&] { write_polymesh(mesh, dir / "ascii2", {.binary = false, .scale = 1e-3, .patch_types = {}}); })});
+    rows.push_back({"polyMesh binary, own adjacency", seconds([&] { write_polymesh(mesh, dir / "binary2", {.binary = true, .scale = 1e-3, .patch_types = {}}); })});
     rows.push_back({"msh 4.1 ascii", seconds([&] { write_volume_msh(mesh, dir / "a41.msh", {.adjacency = adjacency}); })});
     rows.push_back({"msh 4.1 binary", seconds([&] { write_volume_msh(mesh, dir / "b41.msh", {.msh_version = 4.1, .binary = true, .adjacency = adjacency}); })});
     rows.push_back({"msh 2.2 ascii", seconds([&] { write_volume_msh(mesh, dir / "a22.msh", {.msh_version = 2.2, .adjacency = adjacency}); })});

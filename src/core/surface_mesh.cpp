@@ -117,16 +117,21 @@ std::vector<int32_t> triangle_components(const SurfaceMesh& mesh, int32_t* count
     return label;
 }
 
-void bounding_box(const SurfaceMesh& mesh, Vec3& lo, Vec3& hi)
+void bounding_box(const std::vector<Vec3>& points, Vec3& lo, Vec3& hi)
 {
     const double inf = std::numeric_limits<double>::infinity();
     lo = {inf, inf, inf};
     hi = {-inf, -inf, -inf};
-    for (const Vec3& p : mesh.points)
+    for (const Vec3& p : points)
         for (int k = 0; k < 3; ++k) {
             lo[k] = std::min(lo[k], p[k]);
             hi[k] = std::max(hi[k], p[k]);
         }
+}
+
+void bounding_box(const SurfaceMesh& mesh, Vec3& lo, Vec3& hi)
+{
+    bounding_box(mesh.points, lo, hi);
 }
 
 SurfaceFacts surface_facts(const SurfaceMesh& mesh)

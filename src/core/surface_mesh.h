@@ -55,7 +55,9 @@ double signed_volume(const SurfaceMesh& mesh);
 // Component label per triangle (edge-connected), and the number of components.
 std::vector<int32_t> triangle_components(const SurfaceMesh& mesh, int32_t* count = nullptr);
 
-// Axis-aligned bounding box of the points.
+// Axis-aligned bounding box of the points (lo = +inf, hi = -inf when there
+// are none).
+void bounding_box(const std::vector<Vec3>& points, Vec3& lo, Vec3& hi);
 void bounding_box(const SurfaceMesh& mesh, Vec3& lo, Vec3& hi);
 
 // Reverses every triangle when the enclosed volume is negative (a surface

@@ -738,11 +738,8 @@ int slab_count(const TetMesh& mesh)
 std::vector<int32_t> point_slabs(const std::vector<Vec3>& points, int count)
 {
     const size_t n = points.size();
-    Vec3 lo = points[0], hi = points[0];
-    for (const Vec3& p : points) {
-        lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
-        hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
-    }
+    Vec3 lo, hi;
+    bounding_box(points, lo, hi);
     const Vec3 size = hi - lo;
     const int axis = size.x >= size.y && size.x >= size.z ? 0 : size.y >= size.z ? 1 : 2;
     auto along = [&](int32_t v) { return axis == 0 ? points[v].x : axis == 1 ? points[v].y : points[v].z; };
@@ -814,9 +811,11 @@ void improve_in_parts(TetMesh& mesh, int32_t surface_points, const std::vector<i
 // Improves the mesh in slabs at once, then the tets near the cuts: those
 // with at least `cut_points` points of a tet across slabs. A flip a slab
 // could not make has an edge of such a tet (two such points), a move it
-// could not make such a point (one).
+// could not make such a point (one). With poor_below > 0, the points of the
+// tets still below it after the slabs count as such points too: the second
+// pass then holds their whole stars, so each of them may move there.
 template <class Improve>
-void improve_in_slabs(TetMesh& mesh, int32_t surface_points, int cut_points, Improve&& improve)
+void improve_in_slabs(TetMesh& mesh, int32_t surface_points, int cut_points, double poor_below, Improve&& improve)
 {
     const int count = slab_count(mesh);
     std::vector<int32_t> part_of(mesh.tets.size(), 0);
@@ -834,6 +833,19 @@ void improve_in_slabs(TetMesh& mesh, int32_t surface_points, int cut_points, Imp
             }
         }
         improve_in_parts(mesh, surface_points, part_of, count, improve);
+        if (poor_below > 0) {
+            std::vector<char> poor(mesh.tets.size(), 0);
+            tbb::parallel_for(tbb::blocked_range<size_t>(0, mesh.tets.size(), 1 << 13), [&](const auto& range) {
+                for (size_t t = range.begin(); t != range.end(); ++t) {
+                    const Tet& tet = mesh.tets[t];
+                    const std::vector<Vec3>& p = mesh.points;
+                    poor[t] = tet_aspect_ratio(p[tet[0]], p[tet[1]], p[tet[2]], p[tet[3]]) < poor_below;
+                }
+            });
+            for (size_t t = 0; t < mesh.tets.size(); ++t)
+                if (poor[t])
+                    for (int32_t v : mesh.tets[t]) cut[v] = 1;
+        }
         part_of.resize(mesh.tets.size());
         for (size_t t = 0; t < mesh.tets.size(); ++t) {
             const Tet& tet = mesh.tets[t];
@@ -882,7 +894,7 @@ FlipCounts flip_volume_criterion(TetMesh& mesh, int sweeps)
 {
     FlipCounts counts;
     std::mutex adding;
-    improve_in_slabs(mesh, 0, 2, [&](Part& part, int) {
+    improve_in_slabs(mesh, 0, 2, 0.0, [&](Part& part, int) {
         const FlipCounts made = flip_sweeps(part.mesh, sweeps);
         const std::lock_guard<std::mutex> lock(adding);
         counts = counts + made;
@@ -1005,7 +1017,7 @@ SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double thresh
 {
     SliverCounts counts;
     std::mutex adding;
-    improve_in_slabs(mesh, surface_points, 1, [&](Part& part, int) {
+    improve_in_slabs(mesh, surface_points, 1, threshold, [&](Part& part, int) {
         std::vector<LayerBound> part_layers;
         if (!layers.empty())
             for (int32_t v : part.global) part_layers.push_back(size_t(v) < layers.size() ? layers[v] : LayerBound{});
