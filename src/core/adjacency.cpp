@@ -24,26 +24,33 @@ VertexTable vertex_triangles(const SurfaceMesh& mesh)
 
 VertexTable vertex_neighbours(const SurfaceMesh& mesh)
 {
+    return vertex_neighbours(mesh, vertex_triangles(mesh));
+}
+
+VertexTable vertex_neighbours(const SurfaceMesh& mesh, const VertexTable& fans)
+{
     const auto n = static_cast<int32_t>(mesh.points.size());
     VertexTable table;
-    table.offsets.assign(n + 1, 0);
-    for (const Triangle& t : mesh.triangles)
-        for (int32_t v : t) table.offsets[v + 1] += 2;
-    for (int32_t i = 0; i < n; ++i) table.offsets[i + 1] += table.offsets[i];
+    table.offsets.resize(n + 1);
+    for (int32_t i = 0; i <= n; ++i) table.offsets[i] = 2 * fans.offsets[i];
+    // Each row gathers the other two corners of its fan triangles into its
+    // own slice of `raw`, then sorts and uniques them (rows in parallel);
+    // the rows are compacted after.
     std::vector<int32_t> raw(table.offsets[n]);
-    std::vector<int32_t> fill(table.offsets.begin(), table.offsets.end() - 1);
-    for (const Triangle& t : mesh.triangles)
-        for (int k = 0; k < 3; ++k) {
-            raw[fill[t[k]]++] = t[(k + 1) % 3];
-            raw[fill[t[k]]++] = t[(k + 2) % 3];
-        }
-    // Sort and unique each row (rows in parallel; each touches only its own
-    // slice), then compact.
     std::vector<int32_t> offsets(n + 1, 0);
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, n, 4096), [&](const tbb::blocked_range<int32_t>& range) {
         for (int32_t i = range.begin(); i != range.end(); ++i) {
             const auto first = raw.begin() + table.offsets[i];
-            auto last = raw.begin() + table.offsets[i + 1];
+            auto last = first;
+            for (const int32_t* f = fans.begin(i); f != fans.end(i); ++f) {
+                if (f != fans.begin(i) && *f == f[-1]) continue; // a repeated corner: once is enough
+                const Triangle& t = mesh.triangles[*f];
+                for (int k = 0; k < 3; ++k)
+                    if (t[k] == i) {
+                        *last++ = t[(k + 1) % 3];
+                        *last++ = t[(k + 2) % 3];
+                    }
+            }
             std::sort(first, last);
             offsets[i + 1] = static_cast<int32_t>(std::unique(first, last) - first);
         }

@@ -23,8 +23,10 @@ struct VertexTable {
 // Triangles incident to each vertex.
 VertexTable vertex_triangles(const SurfaceMesh& mesh);
 
-// Vertices joined to each vertex by an edge, sorted, without repeats.
+// Vertices joined to each vertex by an edge, sorted, without repeats. The
+// second form takes the mesh's vertex_triangles.
 VertexTable vertex_neighbours(const SurfaceMesh& mesh);
+VertexTable vertex_neighbours(const SurfaceMesh& mesh, const VertexTable& fans);
 
 // Undirected edges (a < b), sorted, without repeats.
 std::vector<std::array<int32_t, 2>> unique_edges(const SurfaceMesh& mesh);

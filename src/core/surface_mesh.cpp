@@ -8,6 +8,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
+#include <functional>
 #include <limits>
 #include <numeric>
 #include <sstream>
@@ -134,6 +135,111 @@ void bounding_box(const SurfaceMesh& mesh, Vec3& lo, Vec3& hi)
     bounding_box(mesh.points, lo, hi);
 }
 
+namespace {
+
+struct FanCounts {
+    int64_t edges = 0, boundary = 0, nonmanifold_edges = 0, misoriented = 0, nonmanifold_vertices = 0;
+};
+
+using Joins = tbb::enumerable_thread_specific<std::vector<std::pair<int32_t, int32_t>>>;
+
+// Whether the link of vertex v (the far edge of each fan triangle, directed
+// as the triangle runs) is a single cycle: each link vertex starts exactly
+// one link edge and the walk along them visits all. Where it holds at every
+// vertex, every edge {v, w} has one triangle running v -> w and one running
+// w -> v: the surface is closed, manifold and consistently oriented.
+bool link_is_one_cycle(const SurfaceMesh& mesh, const VertexTable& fans, int32_t v,
+                       std::vector<std::pair<int32_t, int32_t>>& link)
+{
+    link.clear();
+    for (const int32_t* f = fans.begin(v); f != fans.end(v); ++f) {
+        const Triangle& t = mesh.triangles[*f];
+        const int k = t[0] == v ? 0 : (t[1] == v ? 1 : 2);
+        link.emplace_back(t[(k + 1) % 3], t[(k + 2) % 3]);
+    }
+    std::sort(link.begin(), link.end());
+    if (std::adjacent_find(link.begin(), link.end(), [](const auto& a, const auto& b) { return a.first == b.first; }) !=
+        link.end())
+        return false;
+    int32_t cur = link.front().first;
+    size_t steps = 0;
+    do {
+        auto it = std::lower_bound(link.begin(), link.end(), std::make_pair(cur, INT32_MIN));
+        if (it == link.end() || it->first != cur) return false;
+        cur = it->second;
+        ++steps;
+    } while (cur != link.front().first && steps <= link.size());
+    return steps == link.size();
+}
+
+// Edges and vertices are judged locally, from each vertex's fan: an edge
+// {v, w} (counted at its lower end) is manifold and consistently oriented
+// when exactly one fan triangle runs v -> w and one runs w -> v; a vertex
+// is manifold when its link edges form a single cycle.
+// The vertices are judged in parallel; their counts are integers, so the
+// sums do not depend on the split.
+// When `joins` is given the same pass lists, for the components, the pairs
+// of triangles that share an edge (consecutive ones where more than two do),
+// as triangle_components joins them.
+FanCounts fan_counts(const SurfaceMesh& mesh, const VertexTable& fans, Joins* joins)
+{
+    const auto judge = [&](const tbb::blocked_range<int32_t>& range, FanCounts counts) {
+        std::vector<FanEdge> edges;
+        std::vector<std::pair<int32_t, int32_t>> link;
+        auto* join = joins ? &joins->local() : nullptr;
+        for (int32_t v = range.begin(); v != range.end(); ++v) {
+            if (fans.size(v) == 0) continue;
+            fan_edges(mesh, fans, v, edges);
+            for (size_t i = 0; i < edges.size();) {
+                size_t j = i;
+                int outgoing = 0;
+                while (j < edges.size() && edges[j].w == edges[i].w) outgoing += edges[j++].outgoing;
+                if (edges[i].w > v) {
+                    if (join)
+                        for (size_t k = i + 1; k < j; ++k) join->emplace_back(edges[k].triangle, edges[k - 1].triangle);
+                    const size_t n = j - i;
+                    ++counts.edges;
+                    if (n == 1) ++counts.boundary;
+                    else if (n > 2) ++counts.nonmanifold_edges;
+                    else if (outgoing != 1) ++counts.misoriented;
+                }
+                i = j;
+            }
+
+            const bool ok = link_is_one_cycle(mesh, fans, v, link);
+            if (!ok) ++counts.nonmanifold_vertices;
+        }
+        return counts;
+    };
+    return tbb::parallel_reduce(
+        tbb::blocked_range<int32_t>(0, static_cast<int32_t>(mesh.points.size()), 4096), FanCounts{}, judge,
+        [](FanCounts a, const FanCounts& b) {
+            a.edges += b.edges;
+            a.boundary += b.boundary;
+            a.nonmanifold_edges += b.nonmanifold_edges;
+            a.misoriented += b.misoriented;
+            a.nonmanifold_vertices += b.nonmanifold_vertices;
+            return a;
+        });
+}
+
+// Triangles with a repeated vertex.
+int64_t degenerate_triangles(const SurfaceMesh& mesh)
+{
+    return tbb::parallel_reduce(
+        tbb::blocked_range<size_t>(0, mesh.triangles.size(), 16384), int64_t{0},
+        [&](const tbb::blocked_range<size_t>& range, int64_t count) {
+            for (size_t f = range.begin(); f != range.end(); ++f) {
+                const Triangle& t = mesh.triangles[f];
+                count += t[0] == t[1] || t[1] == t[2] || t[2] == t[0];
+            }
+            return count;
+        },
+        std::plus<>{});
+}
+
+} // namespace
+
 SurfaceFacts surface_facts(const SurfaceMesh& mesh)
 {
     SurfaceFacts facts;
@@ -148,80 +254,9 @@ SurfaceFacts surface_facts(const SurfaceMesh& mesh)
     }
     facts.vertices = std::count(used.begin(), used.end(), 1);
 
-    // Edges and vertices are judged locally, from each vertex's fan: an edge
-    // {v, w} (counted at its lower end) is manifold and consistently oriented
-    // when exactly one fan triangle runs v -> w and one runs w -> v; a vertex
-    // is manifold when its link edges form a single cycle.
-    // The vertices are judged in parallel; their counts are integers, so the
-    // sums do not depend on the split.
-    // The same pass lists, for the components, the pairs of triangles that
-    // share an edge (consecutive ones where more than two do), as
-    // triangle_components joins them.
     const VertexTable fans = vertex_triangles(mesh);
-    struct Counts {
-        int64_t edges = 0, boundary = 0, nonmanifold_edges = 0, misoriented = 0, nonmanifold_vertices = 0;
-    };
-    tbb::enumerable_thread_specific<std::vector<std::pair<int32_t, int32_t>>> joins;
-    const auto judge = [&](const tbb::blocked_range<int32_t>& range, Counts counts) {
-        std::vector<FanEdge> edges;
-        std::vector<std::pair<int32_t, int32_t>> link;
-        auto& join = joins.local();
-        for (int32_t v = range.begin(); v != range.end(); ++v) {
-            if (fans.size(v) == 0) continue;
-            fan_edges(mesh, fans, v, edges);
-            for (size_t i = 0; i < edges.size();) {
-                size_t j = i;
-                int outgoing = 0;
-                while (j < edges.size() && edges[j].w == edges[i].w) outgoing += edges[j++].outgoing;
-                if (edges[i].w > v) {
-                    for (size_t k = i + 1; k < j; ++k) join.emplace_back(edges[k].triangle, edges[k - 1].triangle);
-                    const size_t n = j - i;
-                    ++counts.edges;
-                    if (n == 1) ++counts.boundary;
-                    else if (n > 2) ++counts.nonmanifold_edges;
-                    else if (outgoing != 1) ++counts.misoriented;
-                }
-                i = j;
-            }
-
-            link.clear();
-            for (const int32_t* f = fans.begin(v); f != fans.end(v); ++f) {
-                const Triangle& t = mesh.triangles[*f];
-                const int k = t[0] == v ? 0 : (t[1] == v ? 1 : 2);
-                link.emplace_back(t[(k + 1) % 3], t[(k + 2) % 3]);
-            }
-            std::sort(link.begin(), link.end());
-            bool ok = std::adjacent_find(link.begin(), link.end(), [](const auto& a, const auto& b) {
-                          return a.first == b.first;
-                      }) == link.end();
-            if (ok) {
-                int32_t cur = link.front().first;
-                size_t steps = 0;
-                do {
-                    auto it = std::lower_bound(link.begin(), link.end(), std::make_pair(cur, INT32_MIN));
-                    if (it == link.end() || it->first != cur) {
-                        ok = false;
-                        break;
-                    }
-                    cur = it->second;
-                    ++steps;
-                } while (cur != link.front().first && steps <= link.size());
-                ok = ok && steps == link.size();
-            }
-            if (!ok) ++counts.nonmanifold_vertices;
-        }
-        return counts;
-    };
-    const Counts counts = tbb::parallel_reduce(
-        tbb::blocked_range<int32_t>(0, static_cast<int32_t>(mesh.points.size()), 4096), Counts{}, judge,
-        [](Counts a, const Counts& b) {
-            a.edges += b.edges;
-            a.boundary += b.boundary;
-            a.nonmanifold_edges += b.nonmanifold_edges;
-            a.misoriented += b.misoriented;
-            a.nonmanifold_vertices += b.nonmanifold_vertices;
-            return a;
-        });
+    Joins joins;
+    const FanCounts counts = fan_counts(mesh, fans, &joins);
     facts.edges = counts.edges;
     facts.boundary_edges = counts.boundary;
     facts.nonmanifold_edges = counts.nonmanifold_edges;
@@ -255,14 +290,34 @@ void require_closed_manifold(const SurfaceMesh& mesh, const std::string& what)
 {
     if (mesh.triangles.empty())
         throw InputError(what + " has no triangles", "check that the input holds a closed surface");
-    const SurfaceFacts facts = surface_facts(mesh);
-    if (facts.closed_manifold()) return;
+    require_closed_manifold(mesh, vertex_triangles(mesh), what);
+}
+
+// Only the local judgements of surface_facts: no components, area or volume.
+void require_closed_manifold(const SurfaceMesh& mesh, const VertexTable& fans, const std::string& what)
+{
+    if (mesh.triangles.empty())
+        throw InputError(what + " has no triangles", "check that the input holds a closed surface");
+    const int64_t degenerate = degenerate_triangles(mesh);
+    const bool links_ok = tbb::parallel_reduce(
+        tbb::blocked_range<int32_t>(0, static_cast<int32_t>(mesh.points.size()), 4096), true,
+        [&](const tbb::blocked_range<int32_t>& range, bool ok) {
+            std::vector<std::pair<int32_t, int32_t>> link;
+            for (int32_t v = range.begin(); ok && v != range.end(); ++v)
+                ok = fans.size(v) == 0 || link_is_one_cycle(mesh, fans, v, link);
+            return ok;
+        },
+        std::logical_and<>{});
+    if (links_ok && degenerate == 0) return;
+
+    // Count what is wrong, for the message.
+    const FanCounts counts = fan_counts(mesh, fans, nullptr);
 
     std::ostringstream msg;
-    msg << what << " is not a closed, oriented 2-manifold: " << facts.boundary_edges << " open edges, "
-        << facts.nonmanifold_edges << " non-manifold edges, " << facts.misoriented_edges
-        << " inconsistently oriented edges, " << facts.nonmanifold_vertices << " non-manifold vertices, "
-        << facts.degenerate_triangles << " degenerate triangles";
+    msg << what << " is not a closed, oriented 2-manifold: " << counts.boundary << " open edges, "
+        << counts.nonmanifold_edges << " non-manifold edges, " << counts.misoriented
+        << " inconsistently oriented edges, " << counts.nonmanifold_vertices << " non-manifold vertices, "
+        << degenerate << " degenerate triangles";
     // Name where the first open edges are, so the user can find them.
     const std::vector<DirectedEdge> edges = sorted_directed_edges(mesh);
     int shown = 0;

@@ -12,6 +12,7 @@
 namespace scalemesh {
 
 using Triangle = std::array<int32_t, 3>;
+struct VertexTable; // core/adjacency.h
 
 struct SurfaceMesh {
     std::vector<Vec3> points;           // physical coordinates (mm)
@@ -67,6 +68,9 @@ bool orient_outward(SurfaceMesh& mesh);
 
 // Throws InputError naming the open or non-manifold edges (count and the first
 // few coordinates) when the surface is not a closed, oriented 2-manifold.
+// The second form takes the surface's vertex_triangles, for a caller that
+// has them already.
 void require_closed_manifold(const SurfaceMesh& mesh, const std::string& what);
+void require_closed_manifold(const SurfaceMesh& mesh, const VertexTable& fans, const std::string& what);
 
 } // namespace scalemesh

@@ -103,7 +103,8 @@ std::vector<std::vector<std::array<int32_t, 2>>> rim_edges(const SurfaceMesh& su
 FeatureSize cap_feature_size(const SurfaceMesh& surface, const std::vector<Cap>& caps, const SizingParams& params)
 {
     if (caps.empty()) return compute_feature_size(surface, params);
-    require_closed_manifold(surface, "the surface to size");
+    const VertexTable fans = vertex_triangles(surface);
+    require_closed_manifold(surface, fans, "the surface to size");
     const size_t n = surface.points.size();
     const CapNodes nodes = classify_cap_nodes(surface, caps);
 
@@ -115,7 +116,7 @@ FeatureSize cap_feature_size(const SurfaceMesh& surface, const std::vector<Cap>&
     const std::vector<Vec3> wall_normals = synthetic_normals(wall);
 
     FeatureSize result;
-    result.normals = synthetic_normals(surface);
+    result.normals = synthetic_normals(surface, fans);
     const std::vector<int32_t> near_cap = rim_neighbour_cap(surface, nodes);
     for (size_t i = 0; i < n; ++i) {
         const int32_t c = nodes.rim[i] ? nodes.cap_of[i] : (nodes.next_to_rim[i] ? near_cap[i] : -1);
@@ -129,11 +130,11 @@ FeatureSize cap_feature_size(const SurfaceMesh& surface, const std::vector<Cap>&
             result.normals[i] = normalized(projected);
         }
     }
-    result.inward_ok = inward_check(surface, result.normals);
+    result.inward_ok = inward_check(surface, fans, result.normals);
     std::vector<char> cast = result.inward_ok;
     for (size_t i = 0; i < n; ++i)
         if (nodes.rim[i] || nodes.interior[i]) cast[i] = 0;
-    RayResults rays = cast_local_diameter(surface, result.normals, cast, params.L_max, params.threads);
+    RayResults rays = cast_local_diameter(surface, fans, result.normals, cast, params.L_max, params.threads);
     result.D = std::move(rays.D);
     result.D_out = std::move(rays.D_out);
     result.escaped_inward_rays = rays.escaped_inward;

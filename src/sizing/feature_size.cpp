@@ -174,12 +174,13 @@ std::vector<double> limit_feature_size(const SurfaceMesh& mesh, const std::vecto
 FeatureSize compute_feature_size(const SurfaceMesh& mesh, const SizingParams& params)
 {
     validate_params(params);
-    require_closed_manifold(mesh, "the surface to size");
+    // One table of vertex fans serves the check, the normals and the rays.
+    const VertexTable fans = vertex_triangles(mesh);
+    require_closed_manifold(mesh, fans, "the surface to size");
 
     FeatureSize result;
-    result.normals = synthetic_normals(mesh);
-    result.inward_ok = inward_check(mesh, result.normals);
-    RayResults rays = cast_local_diameter(mesh, result.normals, result.inward_ok, params.L_max, params.threads);
+    result.normals = synthetic_normals(mesh, fans, &result.inward_ok);
+    RayResults rays = cast_local_diameter(mesh, fans, result.normals, result.inward_ok, params.L_max, params.threads);
     result.D = std::move(rays.D);
     result.D_out = std::move(rays.D_out);
     result.escaped_inward_rays = rays.escaped_inward;

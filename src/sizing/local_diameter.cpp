@@ -72,7 +72,7 @@ void check_device(RTCDevice device, const char* step)
 
 class RayCaster {
 public:
-    RayCaster(const SurfaceMesh& mesh) : mesh_(mesh), fans_(vertex_triangles(mesh))
+    RayCaster(const SurfaceMesh& mesh, const VertexTable& fans) : mesh_(mesh), fans_(fans)
     {
         // The box of the points the triangles use: a stray point elsewhere
         // would only cost precision.
@@ -164,7 +164,7 @@ public:
 
 private:
     const SurfaceMesh& mesh_;
-    VertexTable fans_;
+    const VertexTable& fans_;
     Vec3 centre_;
     // Hits nearer than this are the origin's own fan: 1e-6 of the bounding
     // box diagonal is a few tens of single-precision steps of the (centred)
@@ -196,6 +196,13 @@ void validate(const SurfaceMesh& mesh, const std::vector<Vec3>& normals, const s
 RayResults cast_local_diameter(const SurfaceMesh& mesh, const std::vector<Vec3>& outward_normals,
                                const std::vector<char>& inward_ok, double L_max, int threads)
 {
+    return cast_local_diameter(mesh, vertex_triangles(mesh), outward_normals, inward_ok, L_max, threads);
+}
+
+RayResults cast_local_diameter(const SurfaceMesh& mesh, const VertexTable& fans,
+                               const std::vector<Vec3>& outward_normals, const std::vector<char>& inward_ok,
+                               double L_max, int threads)
+{
     validate(mesh, outward_normals, inward_ok, L_max, threads);
     const auto n = static_cast<int32_t>(mesh.points.size());
     const double infinity = std::numeric_limits<double>::infinity();
@@ -203,7 +210,7 @@ RayResults cast_local_diameter(const SurfaceMesh& mesh, const std::vector<Vec3>&
     RayResults result;
     result.D.assign(n, L_max);
     result.D_out.assign(n, infinity);
-    RayCaster caster(mesh);
+    RayCaster caster(mesh, fans);
     std::atomic<int64_t> rays{0}, escaped{0};
 
     // Each point writes only its own entries, so the result does not depend

@@ -4,6 +4,7 @@
 // normal and one along the outward one, through an Embree 3 BVH (the paper's
 // AABB tree).
 
+#include "core/adjacency.h"
 #include "core/surface_mesh.h"
 
 #include <cstdint>
@@ -43,5 +44,10 @@ struct RayResults {
 // Embree reports an error.
 RayResults cast_local_diameter(const SurfaceMesh& mesh, const std::vector<Vec3>& outward_normals,
                                const std::vector<char>& inward_ok, double L_max, int threads = 0);
+
+// The same with the mesh's vertex_triangles (core/adjacency.h) given.
+RayResults cast_local_diameter(const SurfaceMesh& mesh, const VertexTable& fans,
+                               const std::vector<Vec3>& outward_normals, const std::vector<char>& inward_ok,
+                               double L_max, int threads = 0);
 
 } // namespace scalemesh

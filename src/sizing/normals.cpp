@@ -26,25 +26,44 @@ double angle_between(const Vec3& u, const Vec3& v)
     return std::atan2(norm(cross(u, v)), dot(u, v));
 }
 
+// The inward test of one vertex: its normal is nonzero and makes a strictly
+// positive dot product with every nonzero triangle normal of its fan.
+bool points_inward(const Vec3& normal, const Vec3* fan_normals, size_t count)
+{
+    if (!(norm2(normal) > 0)) return false;
+    for (size_t i = 0; i < count; ++i)
+        if (norm2(fan_normals[i]) != 0 && !(dot(normal, fan_normals[i]) > 0)) return false;
+    return true;
+}
+
 } // namespace
+
+std::vector<Vec3> synthetic_normals(const SurfaceMesh& mesh)
+{
+    return synthetic_normals(mesh, vertex_triangles(mesh));
+}
 
 // Each vertex gathers over its fan, in parallel. vertex_triangles lists a
 // fan in increasing triangle order, so a vertex adds its terms in the order a
 // loop over the triangles would, and the sums are the same to the last bit
 // whatever the thread count. A triangle with a repeated vertex is listed once
 // per corner, so a repeat is skipped and its corners are taken together.
-std::vector<Vec3> synthetic_normals(const SurfaceMesh& mesh)
+// The fan's triangle normals are kept for the inward test.
+std::vector<Vec3> synthetic_normals(const SurfaceMesh& mesh, const VertexTable& fans, std::vector<char>* inward_ok)
 {
-    const VertexTable fans = vertex_triangles(mesh);
     std::vector<Vec3> normals(mesh.points.size());
+    if (inward_ok) inward_ok->assign(mesh.points.size(), 0);
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, static_cast<int32_t>(mesh.points.size()), 2048),
                       [&](const tbb::blocked_range<int32_t>& range) {
+                          std::vector<Vec3> fan_normals;
                           for (int32_t v = range.begin(); v != range.end(); ++v) {
                               Vec3 sum;
+                              fan_normals.clear();
                               for (const int32_t* f = fans.begin(v); f != fans.end(v); ++f) {
                                   if (f != fans.begin(v) && *f == f[-1]) continue;
                                   const Triangle& t = mesh.triangles[*f];
                                   const Vec3 n = triangle_normal(mesh, t);
+                                  fan_normals.push_back(n);
                                   if (norm2(n) == 0) continue;
                                   for (int k = 0; k < 3; ++k) {
                                       if (t[k] != v) continue;
@@ -55,6 +74,8 @@ std::vector<Vec3> synthetic_normals(const SurfaceMesh& mesh)
                                   }
                               }
                               normals[v] = normalized(sum);
+                              if (inward_ok)
+                                  (*inward_ok)[v] = points_inward(normals[v], fan_normals.data(), fan_normals.size());
                           }
                       });
     return normals;
@@ -62,21 +83,24 @@ std::vector<Vec3> synthetic_normals(const SurfaceMesh& mesh)
 
 std::vector<char> inward_check(const SurfaceMesh& mesh, const std::vector<Vec3>& normals)
 {
+    return inward_check(mesh, vertex_triangles(mesh), normals);
+}
+
+std::vector<char> inward_check(const SurfaceMesh& mesh, const VertexTable& fans, const std::vector<Vec3>& normals)
+{
     if (normals.size() != mesh.points.size())
         throw InputError("inward check got " + std::to_string(normals.size()) + " normals for " +
                              std::to_string(mesh.points.size()) + " points",
                          "pass the result of synthetic_normals for the same mesh");
-    const VertexTable fans = vertex_triangles(mesh);
     std::vector<char> ok(mesh.points.size(), 0);
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, static_cast<int32_t>(mesh.points.size()), 2048),
                       [&](const tbb::blocked_range<int32_t>& range) {
+                          std::vector<Vec3> fan_normals;
                           for (int32_t v = range.begin(); v != range.end(); ++v) {
-                              bool inward = norm2(normals[v]) > 0;
-                              for (const int32_t* f = fans.begin(v); inward && f != fans.end(v); ++f) {
-                                  const Vec3 n = triangle_normal(mesh, mesh.triangles[*f]);
-                                  if (norm2(n) != 0 && !(dot(normals[v], n) > 0)) inward = false;
-                              }
-                              ok[v] = inward;
+                              fan_normals.clear();
+                              for (const int32_t* f = fans.begin(v); f != fans.end(v); ++f)
+                                  fan_normals.push_back(triangle_normal(mesh, mesh.triangles[*f]));
+                              ok[v] = points_inward(normals[v], fan_normals.data(), fan_normals.size());
                           }
                       });
     return ok;

@@ -4,6 +4,7 @@
 // geometry (its negative makes a positive dot product with every incident
 // triangle normal).
 
+#include "core/adjacency.h"
 #include "core/surface_mesh.h"
 
 #include <vector>
@@ -18,10 +19,17 @@ namespace scalemesh {
 // angles cancel). Never throws; degenerate triangles contribute nothing.
 std::vector<Vec3> synthetic_normals(const SurfaceMesh& mesh);
 
+// The same from the mesh's vertex_triangles (core/adjacency.h). When
+// inward_ok is given it also receives inward_check of the result, judged
+// from the triangle normals the sums used.
+std::vector<Vec3> synthetic_normals(const SurfaceMesh& mesh, const VertexTable& fans,
+                                    std::vector<char>* inward_ok = nullptr);
+
 // Per point: 1 where normals[i] is nonzero and makes a strictly positive dot
 // product with the normal of every incident triangle of nonzero area, else 0.
 // Where it is 0 the ray of eq. (3) is not trusted and D = L_max (section 2.1).
 // Throws InputError when normals.size() != mesh.points.size().
 std::vector<char> inward_check(const SurfaceMesh& mesh, const std::vector<Vec3>& normals);
+std::vector<char> inward_check(const SurfaceMesh& mesh, const VertexTable& fans, const std::vector<Vec3>& normals);
 
 } // namespace scalemesh

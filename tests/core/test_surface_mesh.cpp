@@ -6,6 +6,10 @@
 
 #include <gtest/gtest.h>
 
+#include <string>
+#include <utility>
+#include <vector>
+
 namespace scalemesh {
 namespace {
 
@@ -53,6 +57,51 @@ TEST(SurfaceFacts, DetectsHolesFlipsAndPinchedVertices)
     EXPECT_EQ(f.nonmanifold_edges, 0);
     EXPECT_EQ(f.nonmanifold_vertices, 1);
     EXPECT_FALSE(f.closed_manifold());
+}
+
+// require_closed_manifold judges from the vertex links alone; it must
+// refuse exactly the surfaces whose full facts are not a closed manifold,
+// and count what is wrong in its message.
+TEST(SurfaceFacts, RequireClosedManifoldRefusesExactlyWhatTheFactsRefuse)
+{
+    std::vector<std::pair<const char*, SurfaceMesh>> meshes;
+    meshes.emplace_back("closed", octahedron());
+    SurfaceMesh open = octahedron();
+    open.triangles.pop_back();
+    meshes.emplace_back("open", open);
+    SurfaceMesh flipped = octahedron();
+    std::swap(flipped.triangles[0][1], flipped.triangles[0][2]);
+    meshes.emplace_back("flipped", flipped);
+    SurfaceMesh doubled = octahedron();
+    doubled.triangles.push_back(doubled.triangles[0]);
+    meshes.emplace_back("a triangle twice", doubled);
+    SurfaceMesh degenerate = octahedron();
+    degenerate.triangles[0] = {0, 0, 4};
+    meshes.emplace_back("degenerate", degenerate);
+    SurfaceMesh pinched = octahedron(1.0), b = octahedron(1.0, {2, 0, 0});
+    const auto offset = static_cast<int32_t>(pinched.points.size());
+    for (Triangle t : b.triangles) {
+        for (int32_t& v : t) v = (v == 1) ? 0 : v + offset;
+        pinched.triangles.push_back(t);
+    }
+    pinched.points.insert(pinched.points.end(), b.points.begin(), b.points.end());
+    meshes.emplace_back("pinched", pinched);
+
+    for (const auto& [what, mesh] : meshes) {
+        const SurfaceFacts facts = surface_facts(mesh);
+        std::string message;
+        try {
+            require_closed_manifold(mesh, vertex_triangles(mesh), "test");
+        } catch (const InputError& e) {
+            message = e.what();
+        }
+        EXPECT_EQ(message.empty(), facts.closed_manifold()) << what << ": " << message;
+        if (!facts.closed_manifold())
+            EXPECT_NE(message.find(std::to_string(facts.nonmanifold_vertices) + " non-manifold vertices"),
+                      std::string::npos)
+                << what << ": " << message;
+    }
+    EXPECT_EQ(surface_facts(pinched).nonmanifold_vertices, 1);
 }
 
 TEST(SurfaceFacts, OrientOutwardFlipsOnlyInwardSurfaces)

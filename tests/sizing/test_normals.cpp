@@ -64,6 +64,25 @@ TEST(Normals, InwardCheckFailsAtFoldedVertex)
     EXPECT_EQ(far_ok, far);
 }
 
+// The sizing stage takes the normals and the inward flags from one pass over
+// the fans; both must be what the separate functions give.
+TEST(Normals, OnePassGivesTheNormalsAndTheInwardCheck)
+{
+    int32_t vertex = -1;
+    for (const SurfaceMesh& mesh : {test::folded_cap_cylinder(vertex), test::uv_torus(10.0, 3.0, 64, 24)}) {
+        std::vector<char> ok;
+        const std::vector<Vec3> normals = synthetic_normals(mesh, vertex_triangles(mesh), &ok);
+        const std::vector<Vec3> alone = synthetic_normals(mesh);
+        ASSERT_EQ(normals.size(), alone.size());
+        for (size_t i = 0; i < normals.size(); ++i) EXPECT_EQ(normals[i], alone[i]) << i;
+        EXPECT_EQ(ok, inward_check(mesh, alone));
+    }
+    std::vector<char> ok;
+    const SurfaceMesh folded = test::folded_cap_cylinder(vertex);
+    (void)synthetic_normals(folded, vertex_triangles(folded), &ok);
+    EXPECT_EQ(ok[vertex], 0);
+}
+
 TEST(Normals, InwardCheckRejectsMismatchedNormals)
 {
     const SurfaceMesh mesh = test::icosphere(1.0, 1);
