@@ -1,6 +1,7 @@
 #include "volume/improve.h"
 
 #include "volume/quality.h"
+#include "volume/slabs.h"
 
 #include <algorithm>
 #include <array>
@@ -12,7 +13,6 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_sort.h>
 
 namespace scalemesh {
 namespace {
@@ -697,19 +697,25 @@ std::vector<int32_t> flip_surface_quads(const SurfaceMesh& surface, const std::v
 
 namespace {
 
-// Whether each tet of [begin, end) has aspect ratio below `below`, in
-// parallel: the tets are only read, so the sequential loops that use the
-// marks decide as if they had computed each shape in turn.
-std::vector<char> below_marks(const TetEditor& ed, size_t begin, size_t end, double below)
+// Marks [begin, end) by is_marked(t), in parallel: the marks are read by
+// sequential loops, which then decide as if they had asked in turn.
+template <class IsMarked>
+std::vector<char> parallel_marks(size_t begin, size_t end, IsMarked&& is_marked)
 {
     std::vector<char> marks(end - begin, 0);
     tbb::parallel_for(tbb::blocked_range<size_t>(begin, end, 1 << 13), [&](const tbb::blocked_range<size_t>& range) {
-        for (size_t t = range.begin(); t != range.end(); ++t) {
-            const int32_t id = static_cast<int32_t>(t);
-            marks[t - begin] = ed.alive(id) && ed.aspect(ed.tet(id)) < below;
-        }
+        for (size_t t = range.begin(); t != range.end(); ++t) marks[t - begin] = is_marked(t);
     });
     return marks;
+}
+
+// Whether each tet of [begin, end) is alive with aspect ratio below `below`.
+std::vector<char> below_marks(const TetEditor& ed, size_t begin, size_t end, double below)
+{
+    return parallel_marks(begin, end, [&](size_t t) {
+        const auto id = static_cast<int32_t>(t);
+        return ed.alive(id) && ed.aspect(ed.tet(id)) < below;
+    });
 }
 
 // Improvement in parallel. The mesh is cut into parts, each a mesh of its
@@ -731,27 +737,6 @@ struct Part {
 int slab_count(const TetMesh& mesh)
 {
     return static_cast<int>(std::clamp<size_t>(mesh.tets.size() / 100000, 1, 4));
-}
-
-// Each point's slab: `count` slabs of equal count along the longest side of
-// the points' bounding box (ties by id).
-std::vector<int32_t> point_slabs(const std::vector<Vec3>& points, int count)
-{
-    const size_t n = points.size();
-    Vec3 lo, hi;
-    bounding_box(points, lo, hi);
-    const Vec3 size = hi - lo;
-    const int axis = size.x >= size.y && size.x >= size.z ? 0 : size.y >= size.z ? 1 : 2;
-    auto along = [&](int32_t v) { return axis == 0 ? points[v].x : axis == 1 ? points[v].y : points[v].z; };
-    std::vector<int32_t> order(n);
-    std::iota(order.begin(), order.end(), 0);
-    tbb::parallel_sort(order.begin(), order.end(), [&](int32_t a, int32_t b) {
-        const double x = along(a), y = along(b);
-        return x != y ? x < y : a < b;
-    });
-    std::vector<int32_t> slab(n);
-    for (size_t i = 0; i < n; ++i) slab[order[i]] = static_cast<int32_t>(i * count / n);
-    return slab;
 }
 
 // Runs improve(part, r) on parts 0 .. count - 1 at once, part r made of the
@@ -818,39 +803,51 @@ template <class Improve>
 void improve_in_slabs(TetMesh& mesh, int32_t surface_points, int cut_points, double poor_below, Improve&& improve)
 {
     const int count = slab_count(mesh);
+    if (count == 1) {
+        // One part: the whole mesh, improved in place, its surface pinned.
+        Part whole;
+        whole.global.resize(mesh.points.size());
+        std::iota(whole.global.begin(), whole.global.end(), 0);
+        whole.pinned.assign(mesh.points.size(), 0);
+        std::fill_n(whole.pinned.begin(), std::min<size_t>(surface_points, mesh.points.size()), 1);
+        whole.mesh = std::move(mesh);
+        improve(whole, 0);
+        mesh = std::move(whole.mesh);
+        mesh.tet_fields.clear();
+        return;
+    }
+    const SlabCut slabs = equal_count_slabs(mesh.points, count);
+    std::vector<int32_t> slab(mesh.points.size());
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, slab.size(), 1 << 14), [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t v = range.begin(); v != range.end(); ++v) slab[v] = slabs.of(mesh.points[v]);
+    });
     std::vector<int32_t> part_of(mesh.tets.size(), 0);
-    if (count > 1) {
-        const std::vector<int32_t> slab = point_slabs(mesh.points, count);
-        std::vector<char> cut(mesh.points.size(), 0);
-        for (size_t t = 0; t < mesh.tets.size(); ++t) {
+    std::vector<char> cut(mesh.points.size(), 0);
+    for (size_t t = 0; t < mesh.tets.size(); ++t) {
+        const Tet& tet = mesh.tets[t];
+        const int32_t s = slab[tet[0]];
+        if (slab[tet[1]] == s && slab[tet[2]] == s && slab[tet[3]] == s) {
+            part_of[t] = s;
+        } else {
+            part_of[t] = -1;
+            for (int32_t v : tet) cut[v] = 1;
+        }
+    }
+    improve_in_parts(mesh, surface_points, part_of, count, improve);
+    if (poor_below > 0) {
+        const std::vector<Vec3>& p = mesh.points;
+        const std::vector<char> poor = parallel_marks(0, mesh.tets.size(), [&](size_t t) {
             const Tet& tet = mesh.tets[t];
-            const int32_t s = slab[tet[0]];
-            if (slab[tet[1]] == s && slab[tet[2]] == s && slab[tet[3]] == s) {
-                part_of[t] = s;
-            } else {
-                part_of[t] = -1;
-                for (int32_t v : tet) cut[v] = 1;
-            }
-        }
-        improve_in_parts(mesh, surface_points, part_of, count, improve);
-        if (poor_below > 0) {
-            std::vector<char> poor(mesh.tets.size(), 0);
-            tbb::parallel_for(tbb::blocked_range<size_t>(0, mesh.tets.size(), 1 << 13), [&](const auto& range) {
-                for (size_t t = range.begin(); t != range.end(); ++t) {
-                    const Tet& tet = mesh.tets[t];
-                    const std::vector<Vec3>& p = mesh.points;
-                    poor[t] = tet_aspect_ratio(p[tet[0]], p[tet[1]], p[tet[2]], p[tet[3]]) < poor_below;
-                }
-            });
-            for (size_t t = 0; t < mesh.tets.size(); ++t)
-                if (poor[t])
-                    for (int32_t v : mesh.tets[t]) cut[v] = 1;
-        }
-        part_of.resize(mesh.tets.size());
-        for (size_t t = 0; t < mesh.tets.size(); ++t) {
-            const Tet& tet = mesh.tets[t];
-            part_of[t] = cut[tet[0]] + cut[tet[1]] + cut[tet[2]] + cut[tet[3]] >= cut_points ? 0 : -1;
-        }
+            return tet_aspect_ratio(p[tet[0]], p[tet[1]], p[tet[2]], p[tet[3]]) < poor_below;
+        });
+        for (size_t t = 0; t < mesh.tets.size(); ++t)
+            if (poor[t])
+                for (int32_t v : mesh.tets[t]) cut[v] = 1;
+    }
+    part_of.resize(mesh.tets.size());
+    for (size_t t = 0; t < mesh.tets.size(); ++t) {
+        const Tet& tet = mesh.tets[t];
+        part_of[t] = cut[tet[0]] + cut[tet[1]] + cut[tet[2]] + cut[tet[3]] >= cut_points ? 0 : -1;
     }
     improve_in_parts(mesh, surface_points, part_of, 1, improve);
 }

@@ -11,11 +11,15 @@
 #include <CGAL/Hilbert_sort_3.h>
 #include <CGAL/property_map.h>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <numeric>
 #include <sstream>
+#include <stdexcept>
 #include <tuple>
 
 namespace scalemesh {
@@ -92,12 +96,6 @@ std::vector<int32_t> nodes_of(const SurfaceMesh& surface, const std::vector<int3
     return nodes;
 }
 
-int32_t find_root(std::vector<int32_t>& parent, int32_t x)
-{
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-}
-
 // Points made by quad repairs and edge splits (appended to the mesh after
 // the inserted ones): interior, attributed to the nearest surface point, as
 // filler points of layer 1 so that they count for no layer.
@@ -119,47 +117,62 @@ void attribute_new_points(VolumeResult& result, int32_t n)
 
 std::vector<int32_t> topology_check_failures(const TetMesh& mesh, int32_t surface_points)
 {
-    // Two tets at node v are face-adjacent around v when they share a face
-    // through v, i.e. v and two more vertices: key (v, a, b) per tet.
-    struct Entry {
-        int32_t v, a, b, tet;
-    };
-    std::vector<Entry> entries;
-    std::vector<int32_t> tets_at(surface_points, 0);
-    for (size_t t = 0; t < mesh.tets.size(); ++t) {
-        const Tet& tet = mesh.tets[t];
-        for (int i = 0; i < 4; ++i) {
-            const int32_t v = tet[i];
-            if (v >= surface_points) continue;
-            ++tets_at[v];
-            for (int j = 0; j < 4; ++j)
-                for (int k = j + 1; k < 4; ++k)
-                    if (j != i && k != i)
-                        entries.push_back({v, std::min(tet[j], tet[k]), std::max(tet[j], tet[k]), int32_t(t)});
-        }
-    }
-    std::sort(entries.begin(), entries.end(), [](const Entry& x, const Entry& y) {
-        return std::tie(x.v, x.a, x.b) < std::tie(y.v, y.a, y.b);
-    });
-    std::vector<int32_t> parent(mesh.tets.size());
-    std::iota(parent.begin(), parent.end(), 0);
-    for (size_t i = 1; i < entries.size(); ++i)
-        if (entries[i].v == entries[i - 1].v && entries[i].a == entries[i - 1].a && entries[i].b == entries[i - 1].b)
-            parent[find_root(parent, entries[i].tet)] = find_root(parent, entries[i - 1].tet);
+    return topology_check_failures(mesh, surface_points, tet_face_adjacency(mesh));
+}
 
-    // Components per node: distinct roots among its tets.
-    std::vector<int32_t> first_root(surface_points, -1);
-    std::vector<char> failed(surface_points, 0);
+// Each node's star (its tets, listed by a counting pass) is searched from
+// its first tet across the three faces through the node; the node passes
+// when the search reaches the whole star. Nodes in parallel.
+std::vector<int32_t> topology_check_failures(const TetMesh& mesh, int32_t surface_points,
+                                             const TetFaceAdjacency& adjacency)
+{
+    if (adjacency.across.size() != 4 * mesh.tets.size())
+        throw std::invalid_argument("topology check: the adjacency is not of these tets");
+    std::vector<int32_t> offsets(surface_points + 1, 0);
+    for (const Tet& tet : mesh.tets)
+        for (int32_t v : tet)
+            if (v < surface_points) ++offsets[v + 1];
+    for (int32_t v = 0; v < surface_points; ++v) offsets[v + 1] += offsets[v];
+    std::vector<int32_t> star(offsets[surface_points]);
+    std::vector<int32_t> fill(offsets.begin(), offsets.end() - 1);
     for (size_t t = 0; t < mesh.tets.size(); ++t)
-        for (int32_t v : mesh.tets[t]) {
-            if (v >= surface_points) continue;
-            const int32_t r = find_root(parent, int32_t(t));
-            if (first_root[v] == -1) first_root[v] = r;
-            else if (first_root[v] != r) failed[v] = 1;
+        for (int32_t v : mesh.tets[t])
+            if (v < surface_points) star[fill[v]++] = static_cast<int32_t>(t);
+
+    std::vector<char> failed(surface_points, 0);
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, surface_points, 1024), [&](const tbb::blocked_range<int32_t>& range) {
+        std::vector<int32_t> queue;
+        std::vector<char> seen;
+        for (int32_t v = range.begin(); v != range.end(); ++v) {
+            const int32_t* first = star.data() + offsets[v];
+            const int32_t* last = star.data() + offsets[v + 1];
+            if (first == last) {
+                failed[v] = 1;
+                continue;
+            }
+            // The star is in increasing tet order: a tet's place in it is
+            // found by binary search.
+            seen.assign(last - first, 0);
+            seen[0] = 1;
+            queue.assign(1, *first);
+            for (size_t next = 0; next < queue.size(); ++next) {
+                const int32_t t = queue[next];
+                for (int k = 0; k < 4; ++k) {
+                    if (mesh.tets[t][k] == v) continue; // face k leaves out corner k: not through v
+                    const int32_t u = adjacency.across[4 * size_t(t) + k];
+                    if (u < 0) continue;
+                    const int32_t* at = std::lower_bound(first, last, u);
+                    if (at == last || *at != u || seen[at - first]) continue;
+                    seen[at - first] = 1;
+                    queue.push_back(u);
+                }
+            }
+            failed[v] = queue.size() != size_t(last - first);
         }
+    });
     std::vector<int32_t> failures;
     for (int32_t v = 0; v < surface_points; ++v)
-        if (failed[v] || tets_at[v] == 0) failures.push_back(v);
+        if (failed[v]) failures.push_back(v);
     return failures;
 }
 
@@ -337,7 +350,7 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
                                        std::to_string(facts.boundary_faces) + " boundary faces for " +
                                        std::to_string(surface.triangles.size()) + " surface triangles)");
     if (params.check_topology) {
-        const std::vector<int32_t> failures = topology_check_failures(mesh, n);
+        const std::vector<int32_t> failures = topology_check_failures(mesh, n, result.adjacency);
         if (!failures.empty())
             throw VolumeConformityError(std::to_string(failures.size()) +
                                             " surface nodes fail the topology check of section 2.3 (nodes " +

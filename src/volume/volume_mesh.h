@@ -126,7 +126,10 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
 
 // Section 2.3 topology check: surface nodes (ids < surface_points) whose
 // incident tets do not form one face-connected component, or that have no
-// tet at all. Linear in the mesh size.
+// tet at all. Linear in the mesh size. The second form takes the tets' face
+// adjacency (std::invalid_argument when it is of other tets).
 std::vector<int32_t> topology_check_failures(const TetMesh& mesh, int32_t surface_points);
+std::vector<int32_t> topology_check_failures(const TetMesh& mesh, int32_t surface_points,
+                                             const TetFaceAdjacency& adjacency);
 
 } // namespace scalemesh
