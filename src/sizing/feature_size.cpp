@@ -71,8 +71,8 @@ void validate_field(const std::vector<double>& field, const char* name, size_t p
 // queue.
 class GradientLimiter {
 public:
-    GradientLimiter(const SurfaceMesh& mesh, double G, std::vector<double>& d)
-        : mesh_(mesh), neighbours_(vertex_neighbours(mesh)), G_(G), d_(d)
+    GradientLimiter(const SurfaceMesh& mesh, const VertexTable& fans, double G, std::vector<double>& d)
+        : mesh_(mesh), neighbours_(vertex_neighbours(mesh, fans)), G_(G), d_(d)
     {
     }
 
@@ -148,10 +148,8 @@ private:
     std::vector<double>& d_;
 };
 
-} // namespace
-
-std::vector<double> limit_feature_size(const SurfaceMesh& mesh, const std::vector<double>& D,
-                                       const std::vector<double>& D_out, const SizingParams& params)
+std::vector<double> limit_with_fans(const SurfaceMesh& mesh, const VertexTable& fans, const std::vector<double>& D,
+                                    const std::vector<double>& D_out, const SizingParams& params)
 {
     validate_params(params);
     validate_field(D, "D", mesh.points.size());
@@ -167,8 +165,16 @@ std::vector<double> limit_feature_size(const SurfaceMesh& mesh, const std::vecto
     const double out_factor = 2 * params.M / params.K;
     for (size_t i = 0; i < d.size(); ++i) d[i] = std::min(d[i], out_factor * D_out[i]);
 
-    GradientLimiter(mesh, params.G, d).run();
+    GradientLimiter(mesh, fans, params.G, d).run();
     return d;
+}
+
+} // namespace
+
+std::vector<double> limit_feature_size(const SurfaceMesh& mesh, const std::vector<double>& D,
+                                       const std::vector<double>& D_out, const SizingParams& params)
+{
+    return limit_with_fans(mesh, vertex_triangles(mesh), D, D_out, params);
 }
 
 FeatureSize compute_feature_size(const SurfaceMesh& mesh, const SizingParams& params)
@@ -194,7 +200,7 @@ FeatureSize compute_feature_size(const SurfaceMesh& mesh, const SizingParams& pa
     }
 
     const auto start = Clock::now();
-    result.d = limit_feature_size(mesh, result.D, result.D_out, params);
+    result.d = limit_with_fans(mesh, fans, result.D, result.D_out, params);
     result.seconds_limit = std::chrono::duration<double>(Clock::now() - start).count();
     return result;
 }

@@ -6,12 +6,16 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <string>
 
 namespace scalemesh {
 
 namespace {
+
+constexpr double kPi = 3.14159265358979323846;
 
 Vec3 triangle_normal(const SurfaceMesh& mesh, const Triangle& t)
 {
@@ -43,14 +47,38 @@ std::vector<Vec3> synthetic_normals(const SurfaceMesh& mesh)
     return synthetic_normals(mesh, vertex_triangles(mesh));
 }
 
-// Each vertex gathers over its fan, in parallel. vertex_triangles lists a
-// fan in increasing triangle order, so a vertex adds its terms in the order a
-// loop over the triangles would, and the sums are the same to the last bit
-// whatever the thread count. A triangle with a repeated vertex is listed once
-// per corner, so a repeat is skipped and its corners are taken together.
-// The fan's triangle normals are kept for the inward test.
+// First each triangle, in parallel: its unit normal and its corner angles,
+// two by atan2 and the third as what is left of pi (exact to rounding; a
+// triangle whose normal vanishes adds nothing, so its angles are not
+// needed). Then each vertex gathers over its fan, in parallel.
+// vertex_triangles lists a fan in increasing triangle order, so a vertex adds
+// its terms in the order a loop over the triangles would, and the sums are
+// the same to the last bit whatever the thread count. A triangle with a
+// repeated vertex is listed once per corner, so a repeat is skipped and its
+// corners are taken together.
 std::vector<Vec3> synthetic_normals(const SurfaceMesh& mesh, const VertexTable& fans, std::vector<char>* inward_ok)
 {
+    struct Shape {
+        Vec3 normal;
+        std::array<double, 3> angle;
+    };
+    std::vector<Shape> shape(mesh.triangles.size());
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, mesh.triangles.size(), 4096),
+                      [&](const tbb::blocked_range<size_t>& range) {
+                          for (size_t f = range.begin(); f != range.end(); ++f) {
+                              const Triangle& t = mesh.triangles[f];
+                              Shape& s = shape[f];
+                              s.normal = triangle_normal(mesh, t);
+                              if (norm2(s.normal) == 0) continue;
+                              const Vec3& a = mesh.points[t[0]];
+                              const Vec3& b = mesh.points[t[1]];
+                              const Vec3& c = mesh.points[t[2]];
+                              s.angle[0] = angle_between(b - a, c - a);
+                              s.angle[1] = angle_between(c - b, a - b);
+                              s.angle[2] = std::max(0.0, kPi - s.angle[0] - s.angle[1]);
+                          }
+                      });
+
     std::vector<Vec3> normals(mesh.points.size());
     if (inward_ok) inward_ok->assign(mesh.points.size(), 0);
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, static_cast<int32_t>(mesh.points.size()), 2048),
@@ -61,17 +89,12 @@ std::vector<Vec3> synthetic_normals(const SurfaceMesh& mesh, const VertexTable& 
                               fan_normals.clear();
                               for (const int32_t* f = fans.begin(v); f != fans.end(v); ++f) {
                                   if (f != fans.begin(v) && *f == f[-1]) continue;
+                                  const Shape& s = shape[*f];
+                                  fan_normals.push_back(s.normal);
+                                  if (norm2(s.normal) == 0) continue;
                                   const Triangle& t = mesh.triangles[*f];
-                                  const Vec3 n = triangle_normal(mesh, t);
-                                  fan_normals.push_back(n);
-                                  if (norm2(n) == 0) continue;
-                                  for (int k = 0; k < 3; ++k) {
-                                      if (t[k] != v) continue;
-                                      const Vec3& p = mesh.points[v];
-                                      const double theta = angle_between(mesh.points[t[(k + 1) % 3]] - p,
-                                                                         mesh.points[t[(k + 2) % 3]] - p);
-                                      sum += theta * n;
-                                  }
+                                  for (int k = 0; k < 3; ++k)
+                                      if (t[k] == v) sum += s.angle[k] * s.normal;
                               }
                               normals[v] = normalized(sum);
                               if (inward_ok)
