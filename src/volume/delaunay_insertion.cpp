@@ -167,8 +167,11 @@ public:
             by_layer[points_[k].layer][slabs.of(positions[k])].push_back(k);
         using Traits = CGAL::Spatial_sort_traits_adapter_3<Kernel, CGAL::Pointer_property_map<Point>::type>;
         const Traits traits(CGAL::make_property_map(positions));
-        for (auto& layer : by_layer)
-            for (auto& slab : layer) CGAL::spatial_sort(slab.begin(), slab.end(), traits);
+        // Each (layer, slab) list sorted on its own, the lists in parallel.
+        tbb::parallel_for(size_t(0), by_layer.size() * slabs.count(), [&](size_t k) {
+            auto& slab = by_layer[k / slabs.count()][k % slabs.count()];
+            CGAL::spatial_sort(slab.begin(), slab.end(), traits);
+        });
 
         Scratch sequential;
         tbb::enumerable_thread_specific<Scratch> scratch;

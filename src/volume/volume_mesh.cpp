@@ -56,7 +56,9 @@ void renumber_for_locality(VolumeResult& result, int32_t n)
     std::vector<int32_t> order(count - n); // the interior points only: surface points keep their ids
     std::iota(order.begin(), order.end(), n);
     using Traits = CGAL::Spatial_sort_traits_adapter_3<Kernel, CGAL::Pointer_property_map<Kernel::Point_3>::type>;
-    const CGAL::Hilbert_sort_3<Traits, CGAL::Hilbert_sort_median_policy> hilbert(Traits(CGAL::make_property_map(positions)));
+    // The parallel median sort splits at the same medians: the same order.
+    const CGAL::Hilbert_sort_3<Traits, CGAL::Hilbert_sort_median_policy, CGAL::Parallel_if_available_tag> hilbert(
+        Traits(CGAL::make_property_map(positions)));
     hilbert(order.begin(), order.end());
 
     // New ids: surface points unchanged, interior points in Hilbert order.
