@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <array>
+#include <initializer_list>
 #include <cmath>
 #include <map>
 #include <mutex>
@@ -16,6 +17,33 @@
 
 namespace scalemesh {
 namespace {
+
+// Up to N values in place: the lists of a flip (the tets around an edge, the
+// new tets) have at most four, and the flips are tried for every poor tet,
+// so they stay off the heap.
+template <class T, int N>
+class Few {
+public:
+    Few() = default;
+    Few(std::initializer_list<T> values)
+    {
+        for (const T& v : values) push_back(v);
+    }
+    void push_back(const T& v) { items_[count_++] = v; }
+    bool full() const { return count_ == N; }
+    size_t size() const { return static_cast<size_t>(count_); }
+    bool empty() const { return count_ == 0; }
+    const T& operator[](size_t i) const { return items_[i]; }
+    T& operator[](size_t i) { return items_[i]; }
+    const T& front() const { return items_[0]; }
+    const T& back() const { return items_[count_ - 1]; }
+    const T* begin() const { return items_.data(); }
+    const T* end() const { return items_.data() + count_; }
+
+private:
+    std::array<T, N> items_{};
+    int count_ = 0;
+};
 
 // A flip replaces old tets by new ones on the same polyhedron; the criterion
 // decides from their volumes or aspect ratios whether it is worth it.
@@ -82,14 +110,6 @@ public:
         return result;
     }
 
-    // Number of living tets at the edge (a, b).
-    int edge_degree(int32_t a, int32_t b)
-    {
-        int count = 0;
-        for (int32_t t : at(a)) count += contains(tets_[t], b);
-        return count;
-    }
-
     bool has_edge(int32_t a, int32_t b)
     {
         for (int32_t t : at(a))
@@ -114,7 +134,8 @@ public:
     }
 
     // Replaces the tets `old` by `fresh` (all already positively oriented).
-    void replace(const std::vector<int32_t>& old, const std::vector<Tet>& fresh)
+    template <class Old, class Fresh>
+    void replace(const Old& old, const Fresh& fresh)
     {
         for (int32_t t : old) alive_[t] = 0;
         for (const Tet& t : fresh) {
@@ -146,7 +167,8 @@ Tet oriented(const TetEditor& ed, int32_t a, int32_t b, int32_t c, int32_t d, do
     return {a, b, c, d};
 }
 
-double longest_edge2(const TetEditor& ed, const std::vector<Tet>& tets)
+template <class Tets>
+double longest_edge2(const TetEditor& ed, const Tets& tets)
 {
     double l2 = 0;
     for (const Tet& t : tets)
@@ -172,16 +194,20 @@ public:
     }
 
 private:
+    using Tets = Few<Tet, 4>;
+    using Volumes = std::array<double, 4>;
+
     // Whether replacing `old` by `fresh` is worth it; the new tets must all
     // be clearly positive (beyond round-off of their size).
-    bool accept(const std::vector<int32_t>& old, const std::vector<Tet>& fresh, const std::vector<double>& fresh6)
+    template <class Old>
+    bool accept(const Old& old, const Tets& fresh, const Volumes& fresh6)
     {
-        std::vector<Tet> old_tets;
+        Tets old_tets;
         for (int32_t t : old) old_tets.push_back(ed_.tet(t));
         const double l2 = longest_edge2(ed_, old_tets);
         const double floor6 = 1e-12 * l2 * std::sqrt(l2);
         double new_min = 1e300;
-        for (double v : fresh6) new_min = std::min(new_min, v);
+        for (size_t k = 0; k < fresh.size(); ++k) new_min = std::min(new_min, fresh6[k]);
         if (!(new_min > floor6)) return false;
         if (criterion_ == Criterion::volume) {
             double old_min = 1e300;
@@ -196,25 +222,25 @@ private:
 
     // The ring of the edge (a, b): c_0 .. c_{k-1} with (a, b, c_i, c_{i+1})
     // positive. Empty when the tets around the edge do not close (a surface edge).
-    std::vector<int32_t> ring(int32_t a, int32_t b, const std::vector<int32_t>& around)
+    Few<int32_t, 4> ring(int32_t a, int32_t b, const Few<int32_t, 4>& around)
     {
-        std::vector<std::pair<int32_t, int32_t>> next;
+        Few<std::pair<int32_t, int32_t>, 4> next;
         for (int32_t t : around) {
             int32_t other[2], k = 0;
             for (int32_t v : ed_.tet(t))
                 if (v != a && v != b) other[k++] = v;
             if (tet_volume6(ed_.point(a), ed_.point(b), ed_.point(other[0]), ed_.point(other[1])) < 0)
                 std::swap(other[0], other[1]);
-            next.emplace_back(other[0], other[1]);
+            next.push_back({other[0], other[1]});
         }
-        std::vector<int32_t> cycle{next[0].first};
+        Few<int32_t, 4> cycle{next[0].first};
         for (size_t step = 0; step < next.size(); ++step) {
             const int32_t from = cycle.back();
             int32_t to = -1, hits = 0;
             for (const auto& [x, y] : next)
                 if (x == from) to = y, ++hits;
             if (hits != 1) return {};
-            if (step + 1 == next.size()) return to == cycle.front() ? cycle : std::vector<int32_t>{};
+            if (step + 1 == next.size()) return to == cycle.front() ? cycle : Few<int32_t, 4>{};
             cycle.push_back(to);
         }
         return {};
@@ -222,17 +248,20 @@ private:
 
     bool flip_edge(int32_t a, int32_t b, FlipCounts& counts)
     {
-        const int degree = ed_.edge_degree(a, b);
-        if (degree != 3 && degree != 4) return false;
-        const std::vector<int32_t> around = ed_.around_edge(a, b);
+        // The tets around the edge, when there are three or four.
+        Few<int32_t, 4> around;
+        for (int32_t t : ed_.at(a))
+            if (TetEditor::contains(ed_.tet(t), b)) {
+                if (around.full()) return false;
+                around.push_back(t);
+            }
         if (around.size() != 3 && around.size() != 4) return false;
-        const std::vector<int32_t> c = ring(a, b, around);
+        const Few<int32_t, 4> c = ring(a, b, around);
         if (c.size() != around.size()) return false;
         if (c.size() == 3) {
             if (ed_.has_face(c[0], c[1], c[2])) return false;
-            std::vector<double> v6(2);
-            const std::vector<Tet> fresh{oriented(ed_, c[0], c[1], c[2], a, v6[0]),
-                                         oriented(ed_, c[0], c[1], c[2], b, v6[1])};
+            Volumes v6{};
+            const Tets fresh{oriented(ed_, c[0], c[1], c[2], a, v6[0]), oriented(ed_, c[0], c[1], c[2], b, v6[1])};
             // a and b must lie on opposite sides of (c0, c1, c2).
             if (fresh[0][1] == fresh[1][1]) return false;
             if (!accept(around, fresh, v6)) return false;
@@ -243,9 +272,9 @@ private:
         for (int s = 0; s < 2; ++s) {
             const int32_t p = c[s], q = c[s + 1], r = c[s + 2], w = c[(s + 3) % 4];
             if (ed_.has_edge(p, r)) continue;
-            std::vector<double> v6(4);
-            const std::vector<Tet> fresh{oriented(ed_, p, q, r, a, v6[0]), oriented(ed_, p, r, w, a, v6[1]),
-                                         oriented(ed_, p, q, r, b, v6[2]), oriented(ed_, p, r, w, b, v6[3])};
+            Volumes v6{};
+            const Tets fresh{oriented(ed_, p, q, r, a, v6[0]), oriented(ed_, p, r, w, a, v6[1]),
+                             oriented(ed_, p, q, r, b, v6[2]), oriented(ed_, p, r, w, b, v6[3])};
             // Consistent sides: both a-tets on one side, both b-tets on the other.
             const bool a1 = fresh[0][1] == q, a2 = fresh[1][1] == r, b1 = fresh[2][1] == q, b2 = fresh[3][1] == r;
             if (a1 != a2 || b1 != b2 || a1 == b1) continue;
@@ -259,9 +288,12 @@ private:
 
     bool flip_face(int32_t a, int32_t b, int32_t c, FlipCounts& counts)
     {
-        std::vector<int32_t> two;
+        Few<int32_t, 2> two;
         for (int32_t t : ed_.at(a))
-            if (TetEditor::contains(ed_.tet(t), b) && TetEditor::contains(ed_.tet(t), c)) two.push_back(t);
+            if (TetEditor::contains(ed_.tet(t), b) && TetEditor::contains(ed_.tet(t), c)) {
+                if (two.full()) return false;
+                two.push_back(t);
+            }
         if (two.size() != 2) return false; // a surface face has one tet
         int32_t d = -1, e = -1;
         for (int32_t v : ed_.tet(two[0]))
@@ -269,9 +301,9 @@ private:
         for (int32_t v : ed_.tet(two[1]))
             if (v != a && v != b && v != c) e = v;
         if (ed_.has_edge(d, e)) return false;
-        std::vector<double> v6(3);
-        const std::vector<Tet> fresh{oriented(ed_, d, e, a, b, v6[0]), oriented(ed_, d, e, b, c, v6[1]),
-                                     oriented(ed_, d, e, c, a, v6[2])};
+        Volumes v6{};
+        const Tets fresh{oriented(ed_, d, e, a, b, v6[0]), oriented(ed_, d, e, b, c, v6[1]),
+                         oriented(ed_, d, e, c, a, v6[2])};
         // The segment (d, e) must cross the triangle: the three new tets turn the same way around it.
         const bool s0 = fresh[0][1] == e, s1 = fresh[1][1] == e, s2 = fresh[2][1] == e;
         if (s0 != s1 || s1 != s2) return false;
@@ -341,7 +373,7 @@ bool smooth_point(TetEditor& ed, int32_t v, const LayerBound& layer = {})
         const double off = dot(x - layer.home, layer.normal);
         return x - (off - std::clamp(off, -layer.slack, layer.slack)) * layer.normal;
     };
-    std::vector<Vec3> candidates;
+    Few<Vec3, 8> candidates;
     const Vec3 direction = normalized(gradient);
     if (norm2(direction) > 0)
         for (double step : {0.2, 0.1, 0.05, 0.025, 0.0125, 0.006})
