@@ -45,7 +45,7 @@ std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const Feature
     if (!(params.L_max > 0) || !std::isfinite(params.L_max))
         throw InputError("volume: L_max must be a positive finite length in mm", "set L_max as for the sizing stage");
     if (!(params.filter_fraction >= 0) || !(params.filler_filter_fraction >= 0))
-        throw InputError("volume: filter_fraction and filler_filter_fraction must be >= 0", "use 0.1 and 0.5");
+        throw InputError("volume: filter_fraction and filler_filter_fraction must be >= 0", "use 0.1 and 0.8");
     const std::vector<double> lambda = layer_fractions(params.M, params.growth);
 
     // Node i's points, passed one by one to `emit`; the count pass and the

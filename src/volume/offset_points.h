@@ -17,7 +17,7 @@ struct OffsetParams {
                           // 1 = uniform lambda_m = 1/M (the paper's default)
     double L_max = 0;     // mm, > 0: filler spacing is min(D, L_max) / M
     double filter_fraction = 0.1; // interior-point filter radius, fraction of min(d_a, d_b) / M, >= 0
-    double filler_filter_fraction = 0.5; // a filler point's radius is at least this fraction of its own spacing
+    double filler_filter_fraction = 0.8; // a filler point's radius is at least this fraction of its own spacing
 };
 
 // One interior point x_i^m = x_i - dist n_i (n_i the outward unit normal).

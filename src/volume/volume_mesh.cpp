@@ -36,7 +36,7 @@ void check_params(const VolumeParams& p)
     if (p.insertion_passes < 1) throw InputError("volume: insertion_passes must be >= 1", "use 3");
     if (!(p.min_volume_fraction >= 0) || !(p.filter_fraction >= 0) || !(p.filler_filter_fraction >= 0))
         throw InputError("volume: min_volume_fraction, filter_fraction and filler_filter_fraction must be >= 0",
-                         "use 1e-3, 0.1 and 0.5");
+                         "use 1e-3, 0.1 and 0.8");
     if (p.flip_sweeps < 0 || p.sliver_sweeps < 0) throw InputError("volume: sweep counts must be >= 0", "use 10 and 20");
 }
 

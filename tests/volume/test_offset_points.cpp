@@ -161,7 +161,7 @@ TEST(FilterInteriorPoints, PointsCrowdedAtOneSpotKeepOnlyTheFirst)
 // denser than elsewhere, the tets among them slivers. With the filler
 // radius no two kept fillers of different rays are closer than half the
 // spacing, and outside the converging zone every point stays.
-TEST(FilterInteriorPoints, FillersConvergingOnAnAxisAreThinnedToHalfTheirSpacing)
+TEST(FilterInteriorPoints, FillersConvergingOnAnAxisAreThinnedToTheirFillerRadius)
 {
     const int rays = 96;
     const double R = 4, s = 0.0625;
@@ -179,6 +179,8 @@ TEST(FilterInteriorPoints, FillersConvergingOnAnAxisAreThinnedToHalfTheirSpacing
     OffsetParams params;
     params.M = 7;
     params.L_max = 0.4375;
+    const double f = params.filler_filter_fraction; // the default radius, a fraction of the filler spacing
+    ASSERT_GT(f, 0.5);
     const std::vector<OffsetPoint> kept = filter_interior_points(points, sizing, params);
     EXPECT_EQ(greedy_by_all_pairs(points, sizing, params).size(), kept.size());
     double closest = 1e300;
@@ -186,12 +188,16 @@ TEST(FilterInteriorPoints, FillersConvergingOnAnAxisAreThinnedToHalfTheirSpacing
         for (size_t j = i + 1; j < kept.size(); ++j)
             if (kept[i].generator != kept[j].generator)
                 closest = std::min(closest, distance(kept[i].position, kept[j].position));
-    EXPECT_GE(closest, 0.5 * s);
-    // Rays 2 pi r / 96 apart: farther than half the spacing beyond r = 0.48.
+    EXPECT_GE(closest, f * s);
+    // Rays 2 pi r / 96 apart: farther than the radius f s beyond
+    // r = f s 96 / (2 pi), 0.76 for f = 0.8; there every point stays.
+    const double apart = f * s * rays / (2 * 3.14159265358979);
     size_t outside = 0, kept_outside = 0;
-    for (const OffsetPoint& p : points) outside += std::hypot(p.position.x, p.position.y) > 0.5;
-    for (const OffsetPoint& p : kept) kept_outside += std::hypot(p.position.x, p.position.y) > 0.5;
+    for (const OffsetPoint& p : points) outside += std::hypot(p.position.x, p.position.y) > 1.02 * apart;
+    for (const OffsetPoint& p : kept) kept_outside += std::hypot(p.position.x, p.position.y) > 1.02 * apart;
     EXPECT_EQ(kept_outside, outside);
+    // Inside it they are thinned: fewer than the rays bring.
+    EXPECT_LT(kept.size(), points.size());
     // Near the axis the layer radius alone keeps far more.
     params.filler_filter_fraction = 0;
     const std::vector<OffsetPoint> layer_rule = filter_interior_points(points, sizing, params);
