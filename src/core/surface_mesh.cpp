@@ -248,11 +248,11 @@ SurfaceFacts surface_facts(const SurfaceMesh& mesh)
     std::vector<char> used(mesh.points.size(), 0);
     for (const Triangle& t : mesh.triangles) {
         for (int32_t v : t) used[v] = 1;
-        if (t[0] == t[1] || t[1] == t[2] || t[2] == t[0]) ++facts.degenerate_triangles;
         const Vec3& a = mesh.points[t[0]];
         facts.area += 0.5 * norm(cross(mesh.points[t[1]] - a, mesh.points[t[2]] - a));
     }
     facts.vertices = std::count(used.begin(), used.end(), 1);
+    facts.degenerate_triangles = degenerate_triangles(mesh);
 
     const VertexTable fans = vertex_triangles(mesh);
     Joins joins;
@@ -288,8 +288,6 @@ bool orient_outward(SurfaceMesh& mesh)
 
 void require_closed_manifold(const SurfaceMesh& mesh, const std::string& what)
 {
-    if (mesh.triangles.empty())
-        throw InputError(what + " has no triangles", "check that the input holds a closed surface");
     require_closed_manifold(mesh, vertex_triangles(mesh), what);
 }
 

@@ -164,7 +164,7 @@ public:
         std::vector<std::vector<std::vector<std::size_t>>> by_layer(
             max_layer + 1, std::vector<std::vector<std::size_t>>(slabs.count()));
         for (size_t k = 0; k < points_.size(); ++k)
-            by_layer[points_[k].layer][slabs.of(positions[k])].push_back(k);
+            by_layer[points_[k].layer][slabs.of(points_[k].position)].push_back(k);
         using Traits = CGAL::Spatial_sort_traits_adapter_3<Kernel, CGAL::Pointer_property_map<Point>::type>;
         const Traits traits(CGAL::make_property_map(positions));
         // Each (layer, slab) list sorted on its own, the lists in parallel.
@@ -497,7 +497,6 @@ private:
     // The slabs' outer ends lie 1 mm beyond the points, so that the halves
     // next to the end slabs have room.
     struct Slabs : SlabCut {
-        int of(const Point& p) const { return SlabCut::of(p[axis]); }
         double middle(int s) const { return 0.5 * (bounds[s] + bounds[s + 1]); }
         // Slab s and the halves of its neighbours next to it.
         Region region(int s) const

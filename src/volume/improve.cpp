@@ -5,8 +5,8 @@
 
 #include <algorithm>
 #include <array>
-#include <initializer_list>
 #include <cmath>
+#include <initializer_list>
 #include <map>
 #include <mutex>
 #include <numeric>
@@ -32,9 +32,7 @@ public:
     void push_back(const T& v) { items_[count_++] = v; }
     bool full() const { return count_ == N; }
     size_t size() const { return static_cast<size_t>(count_); }
-    bool empty() const { return count_ == 0; }
     const T& operator[](size_t i) const { return items_[i]; }
-    T& operator[](size_t i) { return items_[i]; }
     const T& front() const { return items_[0]; }
     const T& back() const { return items_[count_ - 1]; }
     const T* begin() const { return items_.data(); }
@@ -100,6 +98,19 @@ public:
         auto& list = incident_[v];
         list.erase(std::remove_if(list.begin(), list.end(), [&](int32_t t) { return !alive_[t]; }), list.end());
         return list;
+    }
+
+    // The living tets at the edge (a, b), or at the face (a, b, c) when
+    // c >= 0, into `out`; false when there are more than it holds.
+    template <int N>
+    bool tets_at(Few<int32_t, N>& out, int32_t a, int32_t b, int32_t c = -1)
+    {
+        for (int32_t t : at(a))
+            if (contains(tets_[t], b) && (c < 0 || contains(tets_[t], c))) {
+                if (out.full()) return false;
+                out.push_back(t);
+            }
+        return true;
     }
 
     std::vector<int32_t> around_edge(int32_t a, int32_t b)
@@ -250,12 +261,7 @@ private:
     {
         // The tets around the edge, when there are three or four.
         Few<int32_t, 4> around;
-        for (int32_t t : ed_.at(a))
-            if (TetEditor::contains(ed_.tet(t), b)) {
-                if (around.full()) return false;
-                around.push_back(t);
-            }
-        if (around.size() != 3 && around.size() != 4) return false;
+        if (!ed_.tets_at(around, a, b) || (around.size() != 3 && around.size() != 4)) return false;
         const Few<int32_t, 4> c = ring(a, b, around);
         if (c.size() != around.size()) return false;
         if (c.size() == 3) {
@@ -289,12 +295,7 @@ private:
     bool flip_face(int32_t a, int32_t b, int32_t c, FlipCounts& counts)
     {
         Few<int32_t, 2> two;
-        for (int32_t t : ed_.at(a))
-            if (TetEditor::contains(ed_.tet(t), b) && TetEditor::contains(ed_.tet(t), c)) {
-                if (two.full()) return false;
-                two.push_back(t);
-            }
-        if (two.size() != 2) return false; // a surface face has one tet
+        if (!ed_.tets_at(two, a, b, c) || two.size() != 2) return false; // a surface face has one tet
         int32_t d = -1, e = -1;
         for (int32_t v : ed_.tet(two[0]))
             if (v != a && v != b && v != c) d = v;
