@@ -128,11 +128,13 @@ public:
             throw InputError("volume: the surface points are coplanar", "the surface must enclose a volume");
         surface_vertex_.resize(n_);
         for (auto v = dt_.finite_vertices_begin(); v != dt_.finite_vertices_end(); ++v) surface_vertex_[v->info()] = v;
+        index_facets();
         result.surface_flips = flip_to_facets();
         barrier_.reserve(triangles_.size());
         for (const Triangle& tri : triangles_) barrier_.emplace(make_key(tri[0], tri[1], tri[2]), tri);
         find_quads();
         classify_sides(result);
+        facets_ = {}; // the insertions to come change the facets
         return result.missing_triangles.empty();
     }
 
@@ -268,10 +270,31 @@ public:
     const std::vector<Triangle>& triangles() const { return triangles_; }
 
 private:
-    bool is_facet(const Triangle& tri) const
+    // The finite facets of the surface points' triangulation by their
+    // points, each with one of its two cells: the surface checks below look
+    // up thousands of triangles, and CGAL's is_facet gathers a vertex's
+    // cells for each (with the concurrent containers, into a set).
+    void index_facets()
     {
-        return has_facet(surface_vertex_[tri[0]], surface_vertex_[tri[1]], surface_vertex_[tri[2]]);
+        facets_.reserve(7 * size_t(n_) + 16);
+        for (auto c = dt_.finite_cells_begin(); c != dt_.finite_cells_end(); ++c)
+            for (int l = 0; l < 4; ++l) {
+                int32_t v[3], k = 0;
+                for (int j = 0; j < 4; ++j)
+                    if (j != l) v[k++] = c->vertex(j)->info();
+                facets_.try_emplace(make_key(v[0], v[1], v[2]), c, l);
+            }
+        // A facet on the convex hull has one finite cell: the loop saw it.
     }
+
+    // The facet with points tri, or a null cell when it is not one.
+    Facet find_facet(const Triangle& tri) const
+    {
+        const auto it = facets_.find(make_key(tri[0], tri[1], tri[2]));
+        return it == facets_.end() ? Facet() : it->second;
+    }
+
+    bool is_facet(const Triangle& tri) const { return find_facet(tri).first != Cell_handle(); }
 
     // A surface triangle (a, b, c) that is not a Delaunay facet while its
     // neighbour (a, c, d) is one often has the other split of their quad,
@@ -349,9 +372,7 @@ private:
     {
         std::vector<int32_t> missing;
         for (size_t t = 0; t < triangles_.size(); ++t) {
-            const Triangle& tri = triangles_[t];
-            if (!has_facet(surface_vertex_[tri[0]], surface_vertex_[tri[1]], surface_vertex_[tri[2]]))
-                missing.push_back(static_cast<int32_t>(t));
+            if (!is_facet(triangles_[t])) missing.push_back(static_cast<int32_t>(t));
         }
         std::unordered_map<uint64_t, int32_t> missing_edge; // directed edge -> missing triangle
         const auto directed = directed_edge_key;
@@ -371,9 +392,7 @@ private:
                 int32_t d = -1;
                 for (int32_t v : other)
                     if (v != a && v != c) d = v;
-                const Vertex_handle va = surface_vertex_[a], vb = surface_vertex_[b], vc = surface_vertex_[c],
-                                    vd = surface_vertex_[d];
-                if (!has_facet(va, vb, vd) || !has_facet(vb, vc, vd)) continue;
+                if (!is_facet({a, b, d}) || !is_facet({b, c, d})) continue;
                 used[t] = used[it->second] = 1;
                 quads_.push_back({a, b, c, d});
                 quad_triangles_.emplace_back(t, it->second);
@@ -429,13 +448,6 @@ private:
             if (c->info() == kUnknown) c->info() = kOutside;
     }
 
-    bool has_facet(Vertex_handle a, Vertex_handle b, Vertex_handle c) const
-    {
-        Cell_handle cell;
-        int i, j, k;
-        return dt_.is_facet(a, b, c, cell, i, j, k);
-    }
-
     bool quad_triangle(const Triangle& tri) const
     {
         const TriangleKey k = make_key(tri[0], tri[1], tri[2]);
@@ -448,11 +460,8 @@ private:
     // counter-clockwise): false when it is not a facet or the sides clash.
     bool seed(const Triangle& tri, std::vector<Cell_handle>& stack)
     {
-        Cell_handle c;
-        int i, j, k;
-        if (!dt_.is_facet(surface_vertex_[tri[0]], surface_vertex_[tri[1]], surface_vertex_[tri[2]], c, i, j, k))
-            return false;
-        const int l = 6 - i - j - k;
+        const auto [c, l] = find_facet(tri);
+        if (c == Cell_handle()) return false;
         const Cell_handle other = c->neighbor(l);
         int8_t side_c = kOutside;
         if (!dt_.is_infinite(c)) {
@@ -803,6 +812,7 @@ private:
     Delaunay dt_;
     std::vector<Vertex_handle> surface_vertex_;
     std::unordered_map<TriangleKey, Triangle, TriangleKeyHash> barrier_; // surface triangles and quad stand-ins, oriented outwards
+    std::unordered_map<TriangleKey, Facet, TriangleKeyHash> facets_;      // while the surface is checked (index_facets)
     std::vector<std::array<int32_t, 4>> quads_;
     std::vector<std::pair<int32_t, int32_t>> quad_triangles_;
     std::vector<Verdict> verdict_;

@@ -51,15 +51,25 @@ enum class Criterion { volume, quality };
 // skipped and dropped lazily), enough for local flips and point moves.
 class TetEditor {
 public:
-    explicit TetEditor(TetMesh& mesh) : mesh_(mesh), tets_(mesh.tets), incident_(mesh.points.size())
+    // The incident tets of every point as one flat array (counted, then
+    // filled in tet order); a point's own list is made from it the first
+    // time an edit looks at it or adds a tet to it. An edit touches few of
+    // the points, so the editor costs two passes over the tets instead of a
+    // heap list per point.
+    explicit TetEditor(TetMesh& mesh) : mesh_(mesh), tets_(mesh.tets)
     {
+        const size_t n = mesh.points.size();
         alive_.assign(tets_.size(), 1);
-        std::vector<int32_t> degree(mesh.points.size(), 0);
+        first_.assign(n + 1, 0);
         for (const Tet& t : tets_)
-            for (int32_t v : t) ++degree[v];
-        for (size_t v = 0; v < degree.size(); ++v) incident_[v].reserve(degree[v] + 4);
+            for (int32_t v : t) ++first_[v + 1];
+        for (size_t v = 0; v < n; ++v) first_[v + 1] += first_[v];
+        flat_.resize(first_[n]);
+        std::vector<int64_t> next(first_.begin(), first_.end() - 1);
         for (size_t t = 0; t < tets_.size(); ++t)
-            for (int32_t v : tets_[t]) incident_[v].push_back(static_cast<int32_t>(t));
+            for (int32_t v : tets_[t]) flat_[next[v]++] = static_cast<int32_t>(t);
+        incident_.resize(n);
+        own_.assign(n, 0);
     }
 
     // Writes the living tets back to the mesh.
@@ -84,18 +94,20 @@ public:
     {
         mesh_.points.pop_back();
         incident_.pop_back();
+        own_.pop_back();
     }
     int32_t add_point(const Vec3& x)
     {
         mesh_.points.push_back(x);
         incident_.emplace_back();
+        own_.push_back(1); // a new point has no tets in the flat array
         return static_cast<int32_t>(mesh_.points.size() - 1);
     }
 
     // Living tets at v (compacts v's list on the way).
     const std::vector<int32_t>& at(int32_t v)
     {
-        auto& list = incident_[v];
+        auto& list = own_list(v);
         list.erase(std::remove_if(list.begin(), list.end(), [&](int32_t t) { return !alive_[t]; }), list.end());
         return list;
     }
@@ -153,16 +165,30 @@ public:
             const int32_t id = static_cast<int32_t>(tets_.size());
             tets_.push_back(t);
             alive_.push_back(1);
-            for (int32_t v : t) incident_[v].push_back(id);
+            for (int32_t v : t) own_list(v).push_back(id);
         }
     }
 
     static bool contains(const Tet& t, int32_t v) { return t[0] == v || t[1] == v || t[2] == v || t[3] == v; }
 
 private:
+    std::vector<int32_t>& own_list(int32_t v)
+    {
+        std::vector<int32_t>& list = incident_[v];
+        if (!own_[v]) {
+            own_[v] = 1;
+            list.reserve(first_[v + 1] - first_[v] + 4);
+            list.assign(flat_.begin() + first_[v], flat_.begin() + first_[v + 1]);
+        }
+        return list;
+    }
+
     TetMesh& mesh_;
     std::vector<Tet> tets_;
     std::vector<char> alive_;
+    std::vector<int64_t> first_;                 // point v's tets at the start: flat_[first_[v], first_[v + 1])
+    std::vector<int32_t> flat_;
+    std::vector<char> own_;                      // whether incident_[v] holds v's tets (else flat_ does)
     std::vector<std::vector<int32_t>> incident_;
 };
 
