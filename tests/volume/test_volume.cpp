@@ -296,9 +296,11 @@ TEST(VolumeParallel, ImprovementInSlabsKeepsTheMeshValidAndIsTheSameOnOneOrTwoTh
     EXPECT_LT(after.fraction_below_0_1, 0.01);
     // Below the floor only tets of four surface points (what sliver removal
     // cannot move; the volume stage splits or peels them afterwards).
-    for (const Tet& t : mesh.tets)
-        if (tet_aspect_ratio(mesh.points[t[0]], mesh.points[t[1]], mesh.points[t[2]], mesh.points[t[3]]) < kQualityFloor)
+    for (const Tet& t : mesh.tets) {
+        if (tet_aspect_ratio(mesh.points[t[0]], mesh.points[t[1]], mesh.points[t[2]], mesh.points[t[3]]) < kQualityFloor) {
             EXPECT_LT(*std::max_element(t.begin(), t.end()), n) << "a tet below the floor with an interior point";
+        }
+    }
 }
 
 INSTANTIATE_TEST_SUITE_P(Phantoms, VolumePhantom,
