@@ -204,7 +204,16 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
                             {"insertion_retries", v.insertion_retries},
                             {"quality_before_flips", quality(v.before_flips)},
                             {"quality_after_flips", quality(v.after_flips)},
-                            {"quality_after_sliver_removal", quality(v.after_slivers)}};
+                            {"quality_after_sliver_removal", quality(v.after_slivers)},
+                            {"seconds",
+                             {{"points", v.seconds_points},
+                              {"insertion", v.seconds_insertion},
+                              {"removal", v.seconds_classify},
+                              {"flips", v.seconds_flips},
+                              {"slivers", v.seconds_slivers},
+                              {"quality", v.seconds_quality},
+                              {"checks", v.seconds_checks},
+                              {"total", v.seconds_total}}}};
     } else {
         report["volume"] = "not built: [remeshing] cycles = 0 or [volume] enabled = false";
     }

@@ -133,6 +133,16 @@ TEST_P(SampleCase, RunsAndMeetsItsExpectedBounds)
                           *value.value<double>());
             else ADD_FAILURE() << "unknown key [volume] " << k << " in expected.toml";
         }
+        // The stage's own timers: each part measured, none negative, and
+        // together no more than the stage (the rest is bookkeeping).
+        const nlohmann::json& seconds = v["seconds"];
+        double parts = 0;
+        for (const char* part : {"points", "insertion", "removal", "flips", "slivers", "quality", "checks"}) {
+            ASSERT_TRUE(seconds.contains(part)) << "no volume time for " << part;
+            EXPECT_GE(seconds[part].get<double>(), 0.0) << part;
+            parts += seconds[part].get<double>();
+        }
+        EXPECT_LE(parts, seconds["total"].get<double>() * (1 + 1e-9));
     }
     if (const toml::table* openings = expected["openings"].as_table()) {
         ASSERT_TRUE(report.contains("openings")) << "no openings in the report";
