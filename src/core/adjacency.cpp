@@ -9,17 +9,7 @@ namespace scalemesh {
 
 VertexTable vertex_triangles(const SurfaceMesh& mesh)
 {
-    const auto n = static_cast<int32_t>(mesh.points.size());
-    VertexTable table;
-    table.offsets.assign(n + 1, 0);
-    for (const Triangle& t : mesh.triangles)
-        for (int32_t v : t) ++table.offsets[v + 1];
-    for (int32_t i = 0; i < n; ++i) table.offsets[i + 1] += table.offsets[i];
-    table.items.resize(table.offsets[n]);
-    std::vector<int32_t> fill(table.offsets.begin(), table.offsets.end() - 1);
-    for (int32_t f = 0; f < static_cast<int32_t>(mesh.triangles.size()); ++f)
-        for (int32_t v : mesh.triangles[f]) table.items[fill[v]++] = f;
-    return table;
+    return incident_cells(mesh.triangles, static_cast<int32_t>(mesh.points.size()));
 }
 
 VertexTable vertex_neighbours(const SurfaceMesh& mesh)

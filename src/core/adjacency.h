@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <limits>
+#include <stdexcept>
 #include <unordered_set>
 #include <vector>
 
@@ -19,6 +21,29 @@ struct VertexTable {
     const int32_t* begin(int32_t i) const { return items.data() + offsets[i]; }
     const int32_t* end(int32_t i) const { return items.data() + offsets[i + 1]; }
 };
+
+// The cells (triangles, tets: arrays of point ids) at each of the points
+// 0 .. rows - 1, each row in increasing cell order; points from `rows` on
+// are left out. One counting pass, then one filling pass.
+template <class Cell>
+VertexTable incident_cells(const std::vector<Cell>& cells, int32_t rows)
+{
+    VertexTable table;
+    std::vector<int64_t> counts(static_cast<size_t>(rows) + 1, 0);
+    for (const Cell& cell : cells)
+        for (int32_t v : cell)
+            if (v < rows) ++counts[v + 1];
+    for (int32_t v = 0; v < rows; ++v) counts[v + 1] += counts[v];
+    if (counts[rows] > std::numeric_limits<int32_t>::max())
+        throw std::length_error("incident_cells: more than 2^31 cell corners");
+    table.offsets.assign(counts.begin(), counts.end());
+    table.items.resize(table.offsets[rows]);
+    std::vector<int32_t> fill(table.offsets.begin(), table.offsets.end() - 1);
+    for (size_t c = 0; c < cells.size(); ++c)
+        for (int32_t v : cells[c])
+            if (v < rows) table.items[fill[v]++] = static_cast<int32_t>(c);
+    return table;
+}
 
 // Triangles incident to each vertex.
 VertexTable vertex_triangles(const SurfaceMesh& mesh);

@@ -1,5 +1,7 @@
 #include "volume/improve.h"
 
+#include "core/adjacency.h"
+
 #include "volume/quality.h"
 #include "volume/slabs.h"
 
@@ -51,8 +53,8 @@ enum class Criterion { volume, quality };
 // skipped and dropped lazily), enough for local flips and point moves.
 class TetEditor {
 public:
-    // The incident tets of every point as one flat array (counted, then
-    // filled in tet order); a point's own list is made from it the first
+    // The incident tets of every point as one flat table (incident_cells);
+    // a point's own list is made from it the first
     // time an edit looks at it or adds a tet to it. An edit touches few of
     // the points, so the editor costs two passes over the tets instead of a
     // heap list per point.
@@ -60,14 +62,7 @@ public:
     {
         const size_t n = mesh.points.size();
         alive_.assign(tets_.size(), 1);
-        first_.assign(n + 1, 0);
-        for (const Tet& t : tets_)
-            for (int32_t v : t) ++first_[v + 1];
-        for (size_t v = 0; v < n; ++v) first_[v + 1] += first_[v];
-        flat_.resize(first_[n]);
-        std::vector<int64_t> next(first_.begin(), first_.end() - 1);
-        for (size_t t = 0; t < tets_.size(); ++t)
-            for (int32_t v : tets_[t]) flat_[next[v]++] = static_cast<int32_t>(t);
+        initial_ = incident_cells(tets_, static_cast<int32_t>(n));
         incident_.resize(n);
         own_.assign(n, 0);
     }
@@ -177,8 +172,8 @@ private:
         std::vector<int32_t>& list = incident_[v];
         if (!own_[v]) {
             own_[v] = 1;
-            list.reserve(first_[v + 1] - first_[v] + 4);
-            list.assign(flat_.begin() + first_[v], flat_.begin() + first_[v + 1]);
+            list.reserve(initial_.size(v) + 4);
+            list.assign(initial_.begin(v), initial_.end(v));
         }
         return list;
     }
@@ -186,9 +181,8 @@ private:
     TetMesh& mesh_;
     std::vector<Tet> tets_;
     std::vector<char> alive_;
-    std::vector<int64_t> first_;                 // point v's tets at the start: flat_[first_[v], first_[v + 1])
-    std::vector<int32_t> flat_;
-    std::vector<char> own_;                      // whether incident_[v] holds v's tets (else flat_ does)
+    VertexTable initial_;                        // each point's tets when the editor was made
+    std::vector<char> own_;                      // whether incident_[v] holds v's tets (else initial_ does)
     std::vector<std::vector<int32_t>> incident_;
 };
 

@@ -122,7 +122,7 @@ std::vector<int32_t> topology_check_failures(const TetMesh& mesh, int32_t surfac
     return topology_check_failures(mesh, surface_points, tet_face_adjacency(mesh));
 }
 
-// Each node's star (its tets, listed by a counting pass) is searched from
+// Each node's star (its tets, in tet order) is searched from
 // its first tet across the three faces through the node; the node passes
 // when the search reaches the whole star. Nodes in parallel.
 std::vector<int32_t> topology_check_failures(const TetMesh& mesh, int32_t surface_points,
@@ -130,24 +130,15 @@ std::vector<int32_t> topology_check_failures(const TetMesh& mesh, int32_t surfac
 {
     if (adjacency.across.size() != 4 * mesh.tets.size())
         throw std::invalid_argument("topology check: the adjacency is not of these tets");
-    std::vector<int32_t> offsets(surface_points + 1, 0);
-    for (const Tet& tet : mesh.tets)
-        for (int32_t v : tet)
-            if (v < surface_points) ++offsets[v + 1];
-    for (int32_t v = 0; v < surface_points; ++v) offsets[v + 1] += offsets[v];
-    std::vector<int32_t> star(offsets[surface_points]);
-    std::vector<int32_t> fill(offsets.begin(), offsets.end() - 1);
-    for (size_t t = 0; t < mesh.tets.size(); ++t)
-        for (int32_t v : mesh.tets[t])
-            if (v < surface_points) star[fill[v]++] = static_cast<int32_t>(t);
+    const VertexTable stars = incident_cells(mesh.tets, surface_points);
 
     std::vector<char> failed(surface_points, 0);
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, surface_points, 1024), [&](const tbb::blocked_range<int32_t>& range) {
         std::vector<int32_t> queue;
         std::vector<char> seen;
         for (int32_t v = range.begin(); v != range.end(); ++v) {
-            const int32_t* first = star.data() + offsets[v];
-            const int32_t* last = star.data() + offsets[v + 1];
+            const int32_t* first = stars.begin(v);
+            const int32_t* last = stars.end(v);
             if (first == last) {
                 failed[v] = 1;
                 continue;

@@ -96,10 +96,11 @@ TEST(SurfaceFacts, RequireClosedManifoldRefusesExactlyWhatTheFactsRefuse)
             message = e.what();
         }
         EXPECT_EQ(message.empty(), facts.closed_manifold()) << what << ": " << message;
-        if (!facts.closed_manifold())
+        if (!facts.closed_manifold()) {
             EXPECT_NE(message.find(std::to_string(facts.nonmanifold_vertices) + " non-manifold vertices"),
                       std::string::npos)
                 << what << ": " << message;
+        }
     }
     EXPECT_EQ(surface_facts(pinched).nonmanifold_vertices, 1);
 }

@@ -185,9 +185,10 @@ TEST(CutAndCap, FlowExtensionAddsAStraightTubeOfTheCapsSection)
     bounding_box(extended.surface, lo, hi);
     EXPECT_NEAR(hi.z, 12 + length, 1e-9);
     for (size_t f = 0; f < extended.surface.triangles.size(); ++f)
-        if (extended.surface.triangle_patch[f] == cap.patch)
+        if (extended.surface.triangle_patch[f] == cap.patch) {
             for (int32_t v : extended.surface.triangles[f])
                 EXPECT_NEAR(extended.surface.points[v].z, 12 + length, 1e-9);
+        }
 }
 
 SizingParams tube_sizing()
@@ -217,7 +218,9 @@ TEST(CapSizing, RimNormalsLieInTheCapPlaneAndDSpansTheOpening)
             EXPECT_EQ(sizing.inward_ok[i], 0);
         }
         near += nodes.next_to_rim[i];
-        if (nodes.interior[i]) EXPECT_EQ(sizing.inward_ok[i], 0);
+        if (nodes.interior[i]) {
+            EXPECT_EQ(sizing.inward_ok[i], 0);
+        }
     }
     EXPECT_GT(rims, 40);
     EXPECT_GT(near, 40);
