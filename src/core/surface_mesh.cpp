@@ -39,6 +39,23 @@ std::vector<DirectedEdge> sorted_directed_edges(const SurfaceMesh& mesh)
     return edges;
 }
 
+// The sum of term(triangle) over the triangles, in parallel: the range is
+// split into the same blocks whatever the thread count and each block is
+// summed in order, so the result is the same to the last bit on any number
+// of threads.
+template <class Term>
+double sum_over_triangles(const SurfaceMesh& mesh, const Term& term)
+{
+    return tbb::parallel_deterministic_reduce(
+        tbb::blocked_range<size_t>(0, mesh.triangles.size(), 16384), 0.0,
+        [&](const tbb::blocked_range<size_t>& range, double sum) {
+            double block = 0;
+            for (size_t f = range.begin(); f != range.end(); ++f) block += term(mesh.triangles[f]);
+            return sum + block;
+        },
+        std::plus<>{});
+}
+
 int32_t find_root(std::vector<int32_t>& parent, int32_t i)
 {
     while (parent[i] != i) {
@@ -52,13 +69,9 @@ int32_t find_root(std::vector<int32_t>& parent, int32_t i)
 
 double signed_volume(const SurfaceMesh& mesh)
 {
-    double six_volume = 0;
-    for (const Triangle& t : mesh.triangles) {
-        const Vec3& a = mesh.points[t[0]];
-        const Vec3& b = mesh.points[t[1]];
-        const Vec3& c = mesh.points[t[2]];
-        six_volume += dot(a, cross(b, c));
-    }
+    const double six_volume = sum_over_triangles(mesh, [&](const Triangle& t) {
+        return dot(mesh.points[t[0]], cross(mesh.points[t[1]], mesh.points[t[2]]));
+    });
     return six_volume / 6.0;
 }
 
@@ -238,44 +251,77 @@ int64_t degenerate_triangles(const SurfaceMesh& mesh)
         std::plus<>{});
 }
 
+// The surface is closed, manifold and oriented when every used vertex's
+// link is one cycle and no triangle repeats a vertex (link_is_one_cycle).
+// Vertices in parallel.
+bool links_are_cycles(const SurfaceMesh& mesh, const VertexTable& fans)
+{
+    return tbb::parallel_reduce(
+        tbb::blocked_range<int32_t>(0, static_cast<int32_t>(mesh.points.size()), 4096), true,
+        [&](const tbb::blocked_range<int32_t>& range, bool ok) {
+            std::vector<std::pair<int32_t, int32_t>> link;
+            for (int32_t v = range.begin(); ok && v != range.end(); ++v)
+                ok = fans.size(v) == 0 || link_is_one_cycle(mesh, fans, v, link);
+            return ok;
+        },
+        std::logical_and<>{});
+}
+
 } // namespace
 
+// The usual input is closed and manifold; for it one pass over the links
+// settles every count (each edge has two triangles: E = 3T/2) and the
+// components are those of the vertices, since triangles that share a
+// vertex are joined through its fan. Otherwise every edge and vertex is
+// judged from its fan and the triangles are joined across their edges.
 SurfaceFacts surface_facts(const SurfaceMesh& mesh)
 {
     SurfaceFacts facts;
     facts.triangles = static_cast<int64_t>(mesh.triangles.size());
-
-    std::vector<char> used(mesh.points.size(), 0);
-    for (const Triangle& t : mesh.triangles) {
-        for (int32_t v : t) used[v] = 1;
+    facts.area = 0.5 * sum_over_triangles(mesh, [&](const Triangle& t) {
         const Vec3& a = mesh.points[t[0]];
-        facts.area += 0.5 * norm(cross(mesh.points[t[1]] - a, mesh.points[t[2]] - a));
-    }
-    facts.vertices = std::count(used.begin(), used.end(), 1);
+        return norm(cross(mesh.points[t[1]] - a, mesh.points[t[2]] - a));
+    });
+    facts.signed_volume = signed_volume(mesh);
     facts.degenerate_triangles = degenerate_triangles(mesh);
 
     const VertexTable fans = vertex_triangles(mesh);
-    Joins joins;
-    const FanCounts counts = fan_counts(mesh, fans, &joins);
-    facts.edges = counts.edges;
-    facts.boundary_edges = counts.boundary;
-    facts.nonmanifold_edges = counts.nonmanifold_edges;
-    facts.misoriented_edges = counts.misoriented;
-    facts.nonmanifold_vertices = counts.nonmanifold_vertices;
+    const auto nv = static_cast<int32_t>(mesh.points.size());
+    for (int32_t v = 0; v < nv; ++v) facts.vertices += fans.size(v) > 0;
 
-    const auto nt = static_cast<int32_t>(mesh.triangles.size());
-    std::vector<int32_t> parent(nt);
-    std::iota(parent.begin(), parent.end(), 0);
-    for (const auto& join : joins)
-        for (const auto& [a, b] : join) {
+    if (facts.degenerate_triangles == 0 && links_are_cycles(mesh, fans)) {
+        facts.edges = 3 * facts.triangles / 2;
+        std::vector<int32_t> parent(nv);
+        std::iota(parent.begin(), parent.end(), 0);
+        const auto join = [&](int32_t a, int32_t b) {
             const int32_t ra = find_root(parent, a), rb = find_root(parent, b);
             if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
+        };
+        for (const Triangle& t : mesh.triangles) {
+            join(t[0], t[1]);
+            join(t[0], t[2]);
         }
-    int64_t components = 0;
-    for (int32_t f = 0; f < nt; ++f) components += find_root(parent, f) == f;
-    facts.components = components;
+        for (int32_t v = 0; v < nv; ++v) facts.components += fans.size(v) > 0 && find_root(parent, v) == v;
+    } else {
+        Joins joins;
+        const FanCounts counts = fan_counts(mesh, fans, &joins);
+        facts.edges = counts.edges;
+        facts.boundary_edges = counts.boundary;
+        facts.nonmanifold_edges = counts.nonmanifold_edges;
+        facts.misoriented_edges = counts.misoriented;
+        facts.nonmanifold_vertices = counts.nonmanifold_vertices;
+
+        const auto nt = static_cast<int32_t>(mesh.triangles.size());
+        std::vector<int32_t> parent(nt);
+        std::iota(parent.begin(), parent.end(), 0);
+        for (const auto& join : joins)
+            for (const auto& [a, b] : join) {
+                const int32_t ra = find_root(parent, a), rb = find_root(parent, b);
+                if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
+            }
+        for (int32_t f = 0; f < nt; ++f) facts.components += find_root(parent, f) == f;
+    }
     facts.euler_characteristic = facts.vertices - facts.edges + facts.triangles;
-    facts.signed_volume = signed_volume(mesh);
     return facts;
 }
 
@@ -297,16 +343,7 @@ void require_closed_manifold(const SurfaceMesh& mesh, const VertexTable& fans, c
     if (mesh.triangles.empty())
         throw InputError(what + " has no triangles", "check that the input holds a closed surface");
     const int64_t degenerate = degenerate_triangles(mesh);
-    const bool links_ok = tbb::parallel_reduce(
-        tbb::blocked_range<int32_t>(0, static_cast<int32_t>(mesh.points.size()), 4096), true,
-        [&](const tbb::blocked_range<int32_t>& range, bool ok) {
-            std::vector<std::pair<int32_t, int32_t>> link;
-            for (int32_t v = range.begin(); ok && v != range.end(); ++v)
-                ok = fans.size(v) == 0 || link_is_one_cycle(mesh, fans, v, link);
-            return ok;
-        },
-        std::logical_and<>{});
-    if (links_ok && degenerate == 0) return;
+    if (degenerate == 0 && links_are_cycles(mesh, fans)) return;
 
     // Count what is wrong, for the message.
     const FanCounts counts = fan_counts(mesh, fans, nullptr);

@@ -57,6 +57,43 @@ TEST(SurfaceFacts, DetectsHolesFlipsAndPinchedVertices)
     EXPECT_EQ(f.nonmanifold_edges, 0);
     EXPECT_EQ(f.nonmanifold_vertices, 1);
     EXPECT_FALSE(f.closed_manifold());
+    // Triangles join across edges, not at a pinched vertex.
+    int32_t joined = 0;
+    (void)triangle_components(a, &joined);
+    EXPECT_EQ(joined, 2);
+    EXPECT_EQ(f.components, 2);
+}
+
+// A closed manifold (the facts' one-pass route) and the same surface with a
+// hole (the edge-by-edge route) must agree on what a hole cannot change.
+TEST(SurfaceFacts, ClosedAndOpenRoutesAgreeOnComponentsAndEdges)
+{
+    SurfaceMesh two = octahedron(1.0);
+    const SurfaceMesh b = octahedron(0.5, {5, 0, 0});
+    const auto offset = static_cast<int32_t>(two.points.size());
+    two.points.insert(two.points.end(), b.points.begin(), b.points.end());
+    for (Triangle t : b.triangles) {
+        for (int32_t& v : t) v += offset;
+        two.triangles.push_back(t);
+    }
+    two.points.push_back({9, 9, 9}); // used by no triangle
+
+    const SurfaceFacts closed = surface_facts(two);
+    EXPECT_TRUE(closed.closed_manifold());
+    EXPECT_EQ(closed.vertices, 12);
+    EXPECT_EQ(closed.edges, static_cast<int64_t>(unique_edges(two).size()));
+    EXPECT_EQ(closed.components, 2);
+    EXPECT_EQ(closed.euler_characteristic, 4);
+    EXPECT_NEAR(closed.signed_volume, 4.0 / 3.0 * (1.0 + 0.125), 1e-12);
+
+    SurfaceMesh open = two;
+    open.triangles.erase(open.triangles.begin()); // a hole in the first
+    const SurfaceFacts holed = surface_facts(open);
+    EXPECT_FALSE(holed.closed_manifold());
+    EXPECT_EQ(holed.boundary_edges, 3);
+    EXPECT_EQ(holed.edges, closed.edges);
+    EXPECT_EQ(holed.components, closed.components);
+    EXPECT_EQ(holed.vertices, closed.vertices);
 }
 
 // require_closed_manifold judges from the vertex links alone; it must
