@@ -23,13 +23,6 @@ Vec3 triangle_normal(const SurfaceMesh& mesh, const Triangle& t)
     return normalized(cross(mesh.points[t[1]] - a, mesh.points[t[2]] - a));
 }
 
-// atan2 of |cross| and dot stays accurate for angles near 0 and pi, where
-// acos of the normalized dot product loses half the digits.
-double angle_between(const Vec3& u, const Vec3& v)
-{
-    return std::atan2(norm(cross(u, v)), dot(u, v));
-}
-
 // The inward test of one vertex: its normal is nonzero and makes a strictly
 // positive dot product with every nonzero triangle normal of its fan.
 bool points_inward(const Vec3& normal, const Vec3* fan_normals, size_t count)
@@ -68,13 +61,18 @@ std::vector<Vec3> synthetic_normals(const SurfaceMesh& mesh, const VertexTable& 
                           for (size_t f = range.begin(); f != range.end(); ++f) {
                               const Triangle& t = mesh.triangles[f];
                               Shape& s = shape[f];
-                              s.normal = triangle_normal(mesh, t);
-                              if (norm2(s.normal) == 0) continue;
                               const Vec3& a = mesh.points[t[0]];
                               const Vec3& b = mesh.points[t[1]];
                               const Vec3& c = mesh.points[t[2]];
-                              s.angle[0] = angle_between(b - a, c - a);
-                              s.angle[1] = angle_between(c - b, a - b);
+                              const Vec3 n = cross(b - a, c - a);
+                              const double twice_area = norm(n);
+                              if (!(twice_area > 0)) continue; // normal zero: adds nothing
+                              s.normal = n / twice_area;
+                              // Each corner's angle is atan2(|u x v|, u . v) of its two
+                              // edges, accurate near 0 and pi where acos loses half the
+                              // digits; |u x v| is twice the area at every corner.
+                              s.angle[0] = std::atan2(twice_area, dot(b - a, c - a));
+                              s.angle[1] = std::atan2(twice_area, dot(c - b, a - b));
                               s.angle[2] = std::max(0.0, kPi - s.angle[0] - s.angle[1]);
                           }
                       });
