@@ -1,7 +1,6 @@
 #include "volume/improve.h"
 
 #include "core/adjacency.h"
-
 #include "volume/quality.h"
 #include "volume/slabs.h"
 
@@ -54,10 +53,9 @@ enum class Criterion { volume, quality };
 class TetEditor {
 public:
     // The incident tets of every point as one flat table (incident_cells);
-    // a point's own list is made from it the first
-    // time an edit looks at it or adds a tet to it. An edit touches few of
-    // the points, so the editor costs two passes over the tets instead of a
-    // heap list per point.
+    // a point's own list is made from it the first time an edit looks at it
+    // or adds a tet to it. An edit touches few of the points, so the editor
+    // costs two passes over the tets instead of a heap list per point.
     explicit TetEditor(TetMesh& mesh) : mesh_(mesh), tets_(mesh.tets)
     {
         const size_t n = mesh.points.size();
