@@ -296,9 +296,9 @@ json measure_pipeline(const Settings& s, int box, int threads, bool references, 
     // layermaking points inserted, over the floor(M/2) asked.
     const int layers = static_cast<int>(std::floor(config.M / 2));
     double realised = 0;
-    for (const int32_t r : last.run.volume->realised_layers) realised += r;
+    for (const int32_t r : last.run.volume->layers.realised) realised += r;
     out["layers_asked"] = layers;
-    out["mean_realised_layers"] = realised / std::max<size_t>(1, last.run.volume->realised_layers.size());
+    out["mean_realised_layers"] = realised / std::max<size_t>(1, last.run.volume->layers.realised.size());
     if (s.snappy && box <= s.snappy_max_box) out["ref_snappy"] = measure_snappy(last, layers, dir / "snappy");
     return out;
 }

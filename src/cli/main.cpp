@@ -103,6 +103,10 @@ int main(int argc, char** argv)
     std::optional<int> threads;
     run_cmd->add_option("--threads", threads,
                         "Worker threads of every parallel stage, overriding [run] threads (0: every core)");
+    bool strict = false;
+    run_cmd->add_flag("--strict", strict,
+                      "Exit with code 6 when the mesh misses one of the case's floors (layer coverage, worst aspect "
+                      "ratio, smallest dihedral angle; [volume] in the case file); the outputs are still written");
     std::string max_memory;
     run_cmd->add_option("--max-memory", max_memory,
                         "Memory the run may use, e.g. 8G or 512M (default: the machine's physical memory); a "
@@ -188,6 +192,17 @@ int main(int argc, char** argv)
             const CaseResult result = run_case(case_dir, display.listener(), threads, memory_bound);
             display.summary(config, result,
                             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+            if (verbosity != Verbosity::Quiet || strict)
+                for (const std::string& w : result.warnings)
+                    std::fprintf(stderr, "scalemesh: %s: %s\n", strict ? "error" : "warning", w.c_str());
+            if (strict && !result.warnings.empty()) {
+                std::fprintf(stderr,
+                             "scalemesh: error: the mesh misses %zu of the case's floors (--strict); the outputs "
+                             "and report.json (\"warnings\") are written for inspection. Hint: refine (smaller "
+                             "L_max, larger M) or lower the floors in [volume]\n",
+                             result.warnings.size());
+                return 6;
+            }
         }
     } catch (const scalemesh::Error& e) {
         display.clear();

@@ -146,16 +146,13 @@ void ProgressDisplay::summary(const CaseConfig& config, const CaseResult& result
                      static_cast<long long>(v.mesh.points.size()));
         if (result.polymesh) std::fprintf(o, "; OpenFOAM: %lld cells", static_cast<long long>(result.polymesh->cells));
         std::fprintf(o, "\n");
-        const int32_t layers = static_cast<int32_t>(config.M) / 2;
-        int64_t full = 0, sum = 0;
-        for (int32_t k : v.realised_layers) {
-            full += k >= layers;
-            sum += std::min(k, layers);
-        }
-        const size_t nodes = std::max<size_t>(1, v.realised_layers.size());
-        std::fprintf(o, "  layers    %lld of %zu surface nodes have all %d layers (%.1f%%), %.2f layers on average\n",
-                     static_cast<long long>(full), v.realised_layers.size(), layers, 100.0 * full / nodes,
-                     static_cast<double>(sum) / nodes);
+        const LayerAccount& a = v.layers;
+        std::fprintf(o, "  layers    %lld of %lld wall nodes with D >= L_min keep all %d layers (%.1f%%), %.2f on average",
+                     static_cast<long long>(a.eligible_full), static_cast<long long>(a.eligible_nodes), a.layermaking,
+                     100 * a.coverage(), a.eligible_mean);
+        if (a.opening_nodes)
+            std::fprintf(o, "; %lld opening nodes (cap rings carry their layers)", static_cast<long long>(a.opening_nodes));
+        std::fprintf(o, "\n");
         std::fprintf(o, "  quality   worst aspect ratio %.4f, mean %.4f, %.3f%% below 0.1, smallest dihedral angle %.2f deg\n",
                      q.min_aspect_ratio, q.mean_aspect_ratio, 100 * q.fraction_below_0_1, q.min_dihedral_deg);
         if (verbosity_ == Verbosity::Verbose) {
@@ -164,6 +161,12 @@ void ProgressDisplay::summary(const CaseConfig& config, const CaseResult& result
                              static_cast<long long>(r.tets), r.min_aspect_ratio, 100 * r.fraction_below_0_1,
                              static_cast<long long>(r.below_0_02));
             };
+            std::string losses;
+            for (int k = 1; k < kLayerLossKinds; ++k)
+                if (v.layers.eligible_losses[k])
+                    losses += (losses.empty() ? "" : ", ") + std::to_string(v.layers.eligible_losses[k]) + " " +
+                              layer_loss_name(static_cast<LayerLoss>(k));
+            if (!losses.empty()) std::fprintf(o, "            first missing layer: %s\n", losses.c_str());
             phase("before flips", v.before_flips);
             phase("after flips", v.after_flips);
             phase("after sliver removal", v.after_slivers);

@@ -18,6 +18,7 @@
 
 #include "core/surface_mesh.h"
 #include "sizing/feature_size.h"
+#include "volume/offset_points.h"
 
 #include <cstdint>
 #include <string>
@@ -121,6 +122,8 @@ FeatureSize cap_feature_size(const SurfaceMesh& surface, const std::vector<Cap>&
 struct RingParams {
     double M = 7;
     double growth = 1.0;           // as VolumeParams::growth
+    FirstLayer first_layer = FirstLayer::paper; // as VolumeParams::first_layer, so the rings match the wall's layers
+    double K = 4.2;                // the first layer's anisotropy with FirstLayer::edge
     double L_max = 0;              // mm, filler spacing min(D, L_max) / M
     double filter_fraction = 0.3;  // a point closer than this fraction of its spacing to a kept one is dropped
 };

@@ -119,6 +119,8 @@ SurfaceMesh ring_caps(const SurfaceMesh& surface, const std::vector<Cap>& caps, 
     offset.M = params.M;
     offset.growth = params.growth;
     offset.L_max = params.L_max;
+    offset.first_layer = params.first_layer;
+    offset.K = params.K;
     for (const Cap& cap : caps) {
         const std::vector<std::vector<int32_t>> loops = patch_loops(surface, cap.patch);
         if (loops.empty()) throw StageError("openings", "cap '" + cap.name + "' has no faces left");

@@ -221,9 +221,23 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
                          "choose 0 (no remeshing, no volume mesh) to 100; the paper uses 3");
     config.remesh_cycles = static_cast<int>(cycles);
 
-    const Section volume(root["volume"].as_table(), "volume", source, {"enabled", "growth"});
+    const Section volume(root["volume"].as_table(), "volume", source,
+                         {"enabled", "growth", "first_layer", "layer_tolerance", "min_layer_coverage", "min_aspect_ratio",
+                          "min_dihedral_deg"});
     config.volume = volume.get<bool>("enabled").value_or(true);
     config.growth = volume.number("growth", 1.0, 1.0, 3.0);
+    if (const auto first = volume.get<std::string>("first_layer")) {
+        if (*first == "edge") config.first_layer = FirstLayer::edge;
+        else if (*first == "paper") config.first_layer = FirstLayer::paper;
+        else
+            throw InputError(volume.where("first_layer") + " = \"" + *first + "\" is not a first-layer rule",
+                             "write first_layer = \"edge\" (thickness = surface edge length / K) or \"paper\" "
+                             "(the paper's d/M)");
+    }
+    config.layer_tolerance = volume.number("layer_tolerance", 0.15, 0.0, 0.5, true);
+    config.min_layer_coverage = volume.number("min_layer_coverage", 0.99, 0.0, 1.0);
+    config.min_aspect_ratio = volume.number("min_aspect_ratio", 0.1, 0.0, 1.0);
+    config.min_dihedral_deg = volume.number("min_dihedral_deg", 0.0, 0.0, 70.0);
 
     if (const toml::array* openings = root["openings"].as_array()) {
         std::set<std::string> names;

@@ -61,6 +61,13 @@ struct CaseConfig {
     // [volume], Algorithms 4 and 5, section 2.4.
     bool volume = true;             // build the layered volume mesh
     double growth = 1.0;            // layer thickness ratio, >= 1; 1 = uniform layers as in the paper
+    FirstLayer first_layer = FirstLayer::edge; // "edge": mean surface edge length / K; "paper": lambda_1 d
+    double layer_tolerance = 0.15;  // fraction of its layer spacing a layermaking point may move and still count
+    // The run's own floors: missing one is a warning (stderr, report.json),
+    // and an error exit with `scalemesh run --strict`.
+    double min_layer_coverage = 0.99; // fraction of wall nodes with D >= L_min that keep all floor(M/2) layers
+    double min_aspect_ratio = 0.1;    // worst tet aspect ratio (2 sqrt(6) r_in / l_max)
+    double min_dihedral_deg = 0;      // smallest dihedral angle, degrees (0: no floor)
 
     // [[openings]]: inlets and outlets, in the order they are cut. A border
     // opening's inset is resolved to mm with the voxel width (default 2 voxels).

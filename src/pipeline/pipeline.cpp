@@ -336,6 +336,10 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
     volume.M = config.M;
     volume.growth = config.growth;
     volume.L_max = run.L_max;
+    volume.L_min = run.L_min;
+    volume.layer_tolerance = config.layer_tolerance;
+    volume.first_layer = config.first_layer;
+    volume.aspect_ratio_floor = config.min_aspect_ratio;
 
     // Section 2.3: where the volume mesh cannot conform to the surface, the
     // surface is refined there (d reduced around the failing nodes) and
@@ -351,7 +355,11 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
                 // the opening).
                 run.remeshed->sizing = cap_feature_size(run.remeshed->surface, run.caps, remesh.sizing);
                 run.remeshed->surface = ring_caps(run.remeshed->surface, run.caps, run.remeshed->sizing,
-                                                  {.M = config.M, .growth = config.growth, .L_max = run.L_max});
+                                                  {.M = config.M,
+                                                  .growth = config.growth,
+                                                  .first_layer = config.first_layer,
+                                                  .K = config.K,
+                                                  .L_max = run.L_max});
             }
             const SurfaceFacts facts = surface_facts(run.remeshed->surface);
             std::ostringstream summary;
@@ -407,6 +415,14 @@ std::vector<VertexField> surface_fields(const PipelineRun& run, double K, double
     fields.push_back({"D_out", std::move(D_out)});
     fields.push_back({"d", sizing->d});
     if (run.remeshed) fields.push_back({"edge_length_ratio", edge_length_ratio(run.remeshed->surface, sizing->d, K, M)});
+    if (run.volume) {
+        // Realised layers per wall node; -1 at opening nodes, whose layers
+        // across the opening are the cap's rings.
+        const LayerAccount& a = run.volume->layers;
+        std::vector<double> layers(a.realised.size());
+        for (size_t i = 0; i < layers.size(); ++i) layers[i] = a.wall[i] ? a.realised[i] : -1.0;
+        fields.push_back({"layers", std::move(layers)});
+    }
     return fields;
 }
 

@@ -76,7 +76,8 @@ const SurfaceMesh& final_surface(const PipelineRun& run);
 // Per-vertex fields of the final surface for export: D, D_out and d (mm) when
 // sized; D_out is -1 where the outward ray escapes (infinite); with a
 // remeshed surface also the edge-length ratio of remeshing/remesh.h (mean
-// incident edge length over K/M d with the stable d, 1 on target).
+// incident edge length over K/M d with the stable d, 1 on target), and with a
+// volume mesh the realised layers of each wall node (-1 at opening nodes).
 std::vector<VertexField> surface_fields(const PipelineRun& run, double K, double M);
 
 // The volume mesh ready for export: the surface fields on the surface nodes,

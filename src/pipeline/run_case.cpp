@@ -15,6 +15,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <sstream>
 
@@ -48,7 +49,91 @@ nlohmann::json field_stats(const std::vector<double>& values)
     return out;
 }
 
+// The layer account (volume/layer_account.h): totals, the fate of each
+// short node's first missing layer, and per patch.
+nlohmann::json layers_json(const LayerAccount& a, const SurfaceMesh& surface, const std::vector<Cap>& caps)
+{
+    nlohmann::json losses;
+    for (int k = 1; k < kLayerLossKinds; ++k) losses[layer_loss_name(static_cast<LayerLoss>(k))] = a.eligible_losses[k];
+    // A node belongs to every patch of its triangles.
+    int32_t patches = 1;
+    for (int32_t p : surface.triangle_patch) patches = std::max(patches, p + 1);
+    std::vector<std::vector<char>> on(patches, std::vector<char>(surface.points.size(), 0));
+    for (size_t t = 0; t < surface.triangles.size(); ++t)
+        for (int32_t v : surface.triangles[t]) on[t < surface.triangle_patch.size() ? surface.triangle_patch[t] : 0][v] = 1;
+    nlohmann::json per_patch = nlohmann::json::array();
+    for (int32_t p = 0; p < patches; ++p) {
+        int64_t wall = 0, eligible = 0, full = 0, opening = 0;
+        for (size_t v = 0; v < surface.points.size(); ++v) {
+            if (!on[p][v]) continue;
+            if (!a.wall[v]) {
+                ++opening;
+                continue;
+            }
+            ++wall;
+            if (a.eligible[v]) ++eligible, full += a.realised[v] >= a.layermaking;
+        }
+        const std::string name = p == 0 ? "wall" : size_t(p - 1) < caps.size() ? caps[p - 1].name : "patch_" + std::to_string(p);
+        per_patch.push_back({{"patch", name},
+                             {"wall_nodes", wall},
+                             {"eligible_wall_nodes", eligible},
+                             {"eligible_with_all_layers", full},
+                             {"coverage", eligible ? double(full) / double(eligible) : 1.0},
+                             {"opening_nodes", opening}});
+    }
+    return {{"layermaking", a.layermaking},
+            {"tolerance", a.tolerance},
+            {"wall_nodes", a.wall_nodes},
+            {"wall_nodes_with_all_layers", a.wall_full},
+            {"eligible_wall_nodes", a.eligible_nodes},
+            {"eligible_with_all_layers", a.eligible_full},
+            {"coverage", a.coverage()},
+            {"mean_layers", a.eligible_mean},
+            {"opening_nodes", a.opening_nodes},
+            {"first_missing_layer", losses},
+            {"max_displacement", a.max_displacement},
+            {"stand_ins", a.stand_ins},
+            {"per_patch", per_patch}};
+}
+
 } // namespace
+
+std::vector<std::string> floor_warnings(const CaseConfig& config, const PipelineRun& run)
+{
+    std::vector<std::string> warnings;
+    if (!run.volume) return warnings;
+    const VolumeResult& v = *run.volume;
+    const LayerAccount& a = v.layers;
+    char line[512];
+    if (a.coverage() < config.min_layer_coverage) {
+        std::string why;
+        for (int k = 1; k < kLayerLossKinds; ++k)
+            if (a.eligible_losses[k])
+                why += (why.empty() ? "" : ", ") + std::to_string(a.eligible_losses[k]) + " " +
+                       layer_loss_name(static_cast<LayerLoss>(k));
+        std::snprintf(line, sizeof line,
+                      "%lld of %lld wall nodes with D >= L_min keep all %d layers (%.1f%%), below the floor of "
+                      "%.1f%% ([volume] min_layer_coverage); first missing layer: %s",
+                      static_cast<long long>(a.eligible_full), static_cast<long long>(a.eligible_nodes), a.layermaking,
+                      100 * a.coverage(), 100 * config.min_layer_coverage, why.c_str());
+        warnings.push_back(line);
+    }
+    const QualityReport& q = v.after_slivers;
+    if (q.min_aspect_ratio < config.min_aspect_ratio) {
+        std::snprintf(line, sizeof line,
+                      "the worst tet has aspect ratio %.4f, below the floor of %g ([volume] min_aspect_ratio); %.3f%% "
+                      "of tets are below 0.1",
+                      q.min_aspect_ratio, config.min_aspect_ratio, 100 * q.fraction_below_0_1);
+        warnings.push_back(line);
+    }
+    if (q.min_dihedral_deg < config.min_dihedral_deg) {
+        std::snprintf(line, sizeof line,
+                      "the smallest dihedral angle is %.2f degrees, below the floor of %g ([volume] min_dihedral_deg)",
+                      q.min_dihedral_deg, config.min_dihedral_deg);
+        warnings.push_back(line);
+    }
+    return warnings;
+}
 
 void write_text_file(const std::filesystem::path& path, const std::string& text)
 {
@@ -179,17 +264,12 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
                                   {"below_0_02", q.below_0_02},
                                   {"aspect_ratio_histogram_20_bins", q.histogram}};
         };
-        int64_t full = 0, nodes = static_cast<int64_t>(v.realised_layers.size());
-        const int32_t layers = static_cast<int32_t>(config.M) / 2;
-        for (int32_t k : v.realised_layers) full += k >= layers;
         report["volume"] = {{"points", v.mesh.points.size()},
                             {"tets", v.mesh.tets.size()},
                             {"volume_mm3", facts.volume},
                             {"enclosed_volume_mm3", signed_volume(run.remeshed->surface)},
                             {"boundary_matches_surface", facts.boundary_matches},
                             {"nonpositive_tets", facts.nonpositive_tets},
-                            {"surface_nodes_with_all_layers", full},
-                            {"surface_nodes", nodes},
                             {"first_layer_anisotropy_median", v.first_layer_anisotropy_median},
                             {"inserted_points", v.inserted_points},
                             {"deferred_points", v.deferred_points},
@@ -214,6 +294,7 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
                               {"quality", v.seconds_quality},
                               {"checks", v.seconds_checks},
                               {"total", v.seconds_total}}}};
+        report["layers"] = layers_json(v.layers, final_surface(run), run.caps);
     } else {
         report["volume"] = "not built: [remeshing] cycles = 0 or [volume] enabled = false";
     }
@@ -235,6 +316,7 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
                         {"estimated_peak_bytes_before_remeshing", run.memory_estimate_remeshing},
                         {"estimated_peak_bytes_before_volume", run.memory_estimate_volume},
                         {"measured_peak_bytes", peak_resident_memory()}};
+    report["warnings"] = result.warnings;
     return report.dump(2) + "\n";
 }
 
@@ -259,6 +341,7 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
     // through remove_pending_outputs) leaves the case directory as it was.
     // The polyMesh and case writers hand their files over uncommitted; all
     // are moved into place together, with interruptions held back.
+    result.warnings = floor_warnings(config, result.run);
     StagedOutputs pending;
     const auto stage = [&](const std::string& name) {
         pending.push_back(std::make_unique<AtomicOutput>(dir / name));

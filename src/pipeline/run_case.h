@@ -17,7 +17,13 @@ struct CaseResult {
     std::vector<std::filesystem::path> written; // in the order written, report.json last
     std::optional<PolyMeshCounts> polymesh;     // when the OpenFOAM case was written
     bool flow_case = false;                     // whether 0/U and 0/p were written
+    std::vector<std::string> warnings;          // the run's floors it missed (floor_warnings)
 };
+
+// One sentence per floor of the case ([volume] min_layer_coverage,
+// min_aspect_ratio, min_dihedral_deg) that the volume mesh misses, with the
+// figure; empty when all are met or no volume mesh was built.
+std::vector<std::string> floor_warnings(const CaseConfig& config, const PipelineRun& run);
 
 // Throws InputError, IoError or StageError; a case that fails writes nothing.
 // `threads`, when given, overrides the case file's [run] threads;

@@ -203,7 +203,7 @@ public:
                         deferred[s].clear();
                         for (std::size_t k : by_layer[m][s]) {
                             if (done[k]) continue;
-                            verdict_[k] = try_insert(static_cast<int32_t>(k), positions[k], &region, own);
+                            verdict_[k] = insert_point(static_cast<int32_t>(k), positions[k], &region, own);
                             if (verdict_[k] == Verdict::deferred) deferred[s].push_back(k);
                             done[k] = verdict_[k] == Verdict::inserted;
                         }
@@ -214,13 +214,19 @@ public:
                         ++result.deferred;
                         // The tasks may have taken the last hint's cell.
                         if (k == deferred[s].front()) sequential.hint = locate_start(k, positions[k]);
-                        verdict_[k] = try_insert(static_cast<int32_t>(k), positions[k], nullptr, sequential);
+                        verdict_[k] = insert_point(static_cast<int32_t>(k), positions[k], nullptr, sequential);
                         done[k] = verdict_[k] == Verdict::inserted;
                     }
             }
             if (std::count(done.begin(), done.end(), 1) == inserted_before) break;
         }
+        result.fates.reserve(verdict_.size());
         for (Verdict v : verdict_) {
+            result.fates.push_back(v == Verdict::inserted ? InsertionFate::inserted
+                                   : v == Verdict::small  ? InsertionFate::tiny_tet
+                                   : v == Verdict::filler ? InsertionFate::filler
+                                   : v == Verdict::hidden ? InsertionFate::hidden
+                                                          : InsertionFate::outside);
             result.inserted += v == Verdict::inserted;
             result.rejected_small += v == Verdict::small;
             result.rejected_filler += v == Verdict::filler;
@@ -250,7 +256,8 @@ public:
         for (size_t k = 0; k < points_.size(); ++k) {
             if (index[k] < 0) continue;
             index[k] = static_cast<int32_t>(result.points.size());
-            result.points.push_back(points_[k].position);
+            const Point& at = vertex_of_[k]->point(); // where it went in (insert_point)
+            result.points.push_back({at.x(), at.y(), at.z()});
             result.source.push_back(n_ + static_cast<int32_t>(k));
             ++used;
         }
@@ -582,6 +589,27 @@ private:
         return {};
     }
 
+    // Algorithm 5 for point k at its place p; a layermaking point refused
+    // for a tiny tet or a cavity shrunk to nothing (where the normals of
+    // nearby nodes converge, its neighbours of the same layer crowd it) is
+    // tried again a little along its normal, within the layer tolerance of
+    // its spacing: its layer then still has a point at this node.
+    Verdict insert_point(int32_t k, const Point& p, const Region* region, Scratch& own)
+    {
+        Verdict verdict = try_insert(k, p, region, own);
+        const OffsetPoint& op = points_[k];
+        if ((verdict != Verdict::small && verdict != Verdict::hidden) || op.filler || !(op.dist > 0)) return verdict;
+        const Vec3& node = surface_.points[op.generator];
+        const Vec3 inward = (op.position - node) / op.dist;
+        const double most = 0.9 * params_.layer_shift;
+        for (double shift : {-most, most, -0.5 * most, 0.5 * most}) {
+            const Vec3 q = op.position + shift * op.spacing * inward;
+            const Verdict again = try_insert(k, to_point(q), region, own);
+            if (again == Verdict::inserted || again == Verdict::deferred) return again;
+        }
+        return verdict;
+    }
+
     // Algorithm 5 for point k, with the insertion cavity confined to the
     // inside: the cells whose circumspheres hold the point, reached from
     // the cell that contains it without crossing the surface. A Delaunay
@@ -676,7 +704,13 @@ private:
             return Verdict::deferred;
         }
 
-        const double limit = 6.0 * params_.min_volume_fraction * op.spacing * op.spacing * op.spacing;
+        // The floor's length: a filler's spacing; for a layermaking point
+        // the mean spacing of its layers so far (its own spacing when they
+        // are uniform; graded layers, FirstLayer::edge or growth, would
+        // otherwise judge the thick inner layers by their own thickness where
+        // their points crowd, as at a sphere's centre).
+        const double s = op.filler || op.layer < 1 ? op.spacing : std::min(op.spacing, op.dist / op.layer);
+        const double limit = 6.0 * params_.min_volume_fraction * s * s * s;
         Verdict verdict = Verdict::inserted;
         for (int round = 0;; ++round) {
             const bool shrunk = shrink_cavity(p, c, limit, verdict, own);

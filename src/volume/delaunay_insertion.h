@@ -4,6 +4,7 @@
 
 #include "core/surface_mesh.h"
 #include "core/tet_mesh.h"
+#include "volume/layer_account.h"
 #include "volume/offset_points.h"
 
 #include <array>
@@ -15,6 +16,8 @@ namespace scalemesh {
 struct InsertionParams {
     int passes = 3;                    // passes over the not yet inserted points, >= 1
     double min_volume_fraction = 1e-3; // (i): no new tet below this fraction of spacing^3 (cavity shrunk)
+    double layer_shift = 0.15;         // a refused layermaking point is tried again up to this fraction of its
+                                       // spacing along its normal (the layer tolerance), 0: not at all
     std::vector<std::array<int32_t, 2>> protected_edges; // surface-point pairs no new tet may contain (the
                                                          // cavity is shrunk; diagonals of failed quads)
 };
@@ -34,6 +37,7 @@ struct InsertionResult {
     int64_t rejected_other = 0;   // outside the surface or on a vertex
     int64_t unused = 0; // inserted interior points with no inside cell
     int64_t deferred = 0; // points handed from a parallel task to the sequential pass, once a pass
+    std::vector<InsertionFate> fates; // per offset point: the last verdict on it
     double seconds_insertion = 0, seconds_classify = 0;
 };
 

@@ -386,11 +386,13 @@ bool smooth_point(TetEditor& ed, int32_t v, const LayerBound& layer = {})
     }
     ed.point(v) = origin;
 
-    // A layer point stays within its slack of its layer.
+    // A layer point stays within its slack of its place: on its layer and
+    // on its node's normal.
     auto in_plane = [&](const Vec3& x) {
         if (!(layer.slack > 0)) return x;
-        const double off = dot(x - layer.home, layer.normal);
-        return x - (off - std::clamp(off, -layer.slack, layer.slack)) * layer.normal;
+        const Vec3 away = x - layer.home;
+        const double length = norm(away);
+        return length <= layer.slack ? x : layer.home + (layer.slack / length) * away;
     };
     Few<Vec3, 8> candidates;
     const Vec3 direction = normalized(gradient);
@@ -1053,7 +1055,7 @@ SliverCounts sliver_rounds(TetMesh& mesh, const std::vector<char>& pinned, doubl
     // Last, a layer point of a tet still below 0.1 may leave its layer as
     // far as the move needs: quality first where it is poor.
     for (int round = 0; round < 3 && free_rounds; ++round)
-        if (rounds.round(every_tet(), kFreeBelow, {}, nullptr) == 0) break;
+        if (rounds.round(every_tet(), kFreeBelow, layers, nullptr) == 0) break;
     ed.commit();
     return rounds.counts();
 }
@@ -1076,11 +1078,12 @@ SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double thresh
     return counts;
 }
 
-int64_t split_surface_slivers(TetMesh& mesh, int32_t surface_points, double threshold, double at_least)
+int64_t split_surface_slivers(TetMesh& mesh, int32_t surface_points, double threshold, double at_least,
+                              bool surface_points_only)
 {
     const std::vector<Vec3>& p = mesh.points;
     auto surface_sliver = [&](const Tet& t) {
-        return *std::max_element(t.begin(), t.end()) < surface_points &&
+        return (!surface_points_only || *std::max_element(t.begin(), t.end()) < surface_points) &&
                tet_aspect_ratio(p[t[0]], p[t[1]], p[t[2]], p[t[3]]) < threshold;
     };
     if (std::none_of(mesh.tets.begin(), mesh.tets.end(), surface_sliver)) return 0;

@@ -111,7 +111,10 @@ SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double thresh
 // scans the tets and returns 0 without building anything when there is no
 // such tet. The volume stage splits where that reaches the quality floor,
 // then peels caps (peel_surface_caps), then splits what is left wherever
-// that is better at all.
-int64_t split_surface_slivers(TetMesh& mesh, int32_t surface_points, double threshold, double at_least);
+// that is better at all. With surface_points_only false, any tet below
+// `threshold` qualifies: the last resort for a sliver whose interior points
+// are layer points held on their layers.
+int64_t split_surface_slivers(TetMesh& mesh, int32_t surface_points, double threshold, double at_least,
+                              bool surface_points_only = true);
 
 } // namespace scalemesh

@@ -1,5 +1,6 @@
 #include "volume/offset_points.h"
 
+#include "core/adjacency.h"
 #include "core/errors.h"
 
 #include <tbb/blocked_range.h>
@@ -34,6 +35,34 @@ std::vector<double> layer_fractions(double M, double growth)
     return lambda;
 }
 
+std::vector<double> edge_layer_fractions(const std::vector<double>& lambda, double first)
+{
+    if (lambda.empty() || !(first > 0) || first >= lambda[0]) return lambda;
+    const size_t L = lambda.size();
+    double total = 0;
+    for (double l : lambda) total += l;
+    // first * (1 + r + ... + r^(L-1)) = total; increasing in r, and r = 1 is
+    // too small since first < lambda[0] <= total / L.
+    auto sum = [&](double r) {
+        double s = 0, term = first;
+        for (size_t m = 0; m < L; ++m, term *= r) s += term;
+        return s;
+    };
+    if (L == 1) return {total};
+    double lo = 1, hi = 2;
+    while (sum(hi) < total) hi *= 2;
+    for (int i = 0; i < 100; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (sum(mid) < total ? lo : hi) = mid;
+    }
+    const double r = 0.5 * (lo + hi);
+    std::vector<double> out(L);
+    double term = first;
+    for (size_t m = 0; m < L; ++m, term *= r) out[m] = term;
+    out[L - 1] += total - sum(r); // the round-off of the bisection, so the last point is where the paper's is
+    return out;
+}
+
 std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const FeatureSize& sizing,
                                        const OffsetParams& params)
 {
@@ -47,6 +76,21 @@ std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const Feature
     if (!(params.filter_fraction >= 0) || !(params.filler_filter_fraction >= 0))
         throw InputError("volume: filter_fraction and filler_filter_fraction must be >= 0", "use 0.1 and 0.8");
     const std::vector<double> lambda = layer_fractions(params.M, params.growth);
+    if (params.first_layer == FirstLayer::edge && (!(params.K > 0) || !std::isfinite(params.K)))
+        throw InputError("volume: K must be a positive number", "use K = 4.2");
+    // FirstLayer::edge: each node's mean incident edge length.
+    std::vector<double> edge(params.first_layer == FirstLayer::edge ? n : 0, 0.0);
+    if (!edge.empty()) {
+        const VertexTable neighbours = vertex_neighbours(surface);
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& range) {
+            for (size_t i = range.begin(); i != range.end(); ++i) {
+                double sum = 0;
+                for (const int32_t* j = neighbours.begin(i); j != neighbours.end(i); ++j)
+                    sum += distance(surface.points[i], surface.points[*j]);
+                if (neighbours.size(i) > 0) edge[i] = sum / neighbours.size(i);
+            }
+        });
+    }
 
     // Node i's points, passed one by one to `emit`; the count pass and the
     // fill pass walk the same steps, so each node's points land in its own
@@ -56,12 +100,17 @@ std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const Feature
         const double d = sizing.d[i], D = sizing.D[i];
         if (!(d > 0) || !(D > 0)) return;
         const double filler_step = std::min(D, params.L_max) / params.M;
+        const std::vector<double> own =
+            edge.empty() || !(edge[i] > 0) ? std::vector<double>() : edge_layer_fractions(lambda, edge[i] / params.K / d);
+        const std::vector<double>& fractions = own.empty() ? lambda : own;
         double dist = 0;
         for (int m = 1;; ++m) {
-            const bool filler = m > static_cast<int>(lambda.size());
-            const double step = filler ? filler_step : lambda[m - 1] * d;
+            const bool filler = m > static_cast<int>(fractions.size());
+            const double step = filler ? filler_step : fractions[m - 1] * d;
             dist += step;
-            if (!(dist <= D / 2) || !(step > 0)) break;
+            // For even M and d = D the last layermaking point is the
+            // medial axis itself, D / 2 to round-off.
+            if (!(dist <= D / 2 * (1 + 1e-12)) || !(step > 0)) break;
             emit(m, filler, dist, step);
         }
     };

@@ -11,10 +11,22 @@
 
 namespace scalemesh {
 
+// How thick the first layer is. `paper`: lambda_1 d (Algorithm 4, uniform
+// d/M with growth 1), so the near-wall anisotropy is the surface's edge
+// length over d/M, below K where the remeshed edges end short of K/M d.
+// `edge`: the node's mean incident surface edge length over K (the
+// anisotropy K that section 2.5 asks for near the wall), at most lambda_1 d;
+// the other layermaking layers then grow geometrically so that the last one
+// ends where the paper's does (floor(M/2)/M d from the wall): still
+// floor(M/2) layers on each side, the M layers across.
+enum class FirstLayer { paper, edge };
+
 struct OffsetParams {
     double M = 7;         // element layers across a cross-section, >= 1 (Algorithm 4)
     double growth = 1.0;  // ratio lambda_{m+1} / lambda_m of the layermaking spacing, >= 1;
                           // 1 = uniform lambda_m = 1/M (the paper's default)
+    FirstLayer first_layer = FirstLayer::paper;
+    double K = 4.2;       // anisotropy of the first layer with FirstLayer::edge, > 0
     double L_max = 0;     // mm, > 0: filler spacing is min(D, L_max) / M
     double filter_fraction = 0.1; // interior-point filter radius, fraction of min(d_a, d_b) / M, >= 0
     double filler_filter_fraction = 0.8; // a filler point's radius is at least this fraction of its own spacing
@@ -36,8 +48,15 @@ struct OffsetPoint {
 // uniform case reaches for odd M). Throws InputError when M < 1 or growth < 1.
 std::vector<double> layer_fractions(double M, double growth);
 
+// Spacings of node i's layermaking layers, as fractions of d_i, given its
+// first layer's fraction `first` (FirstLayer::edge): first, then geometric
+// to the same total as `lambda` (first is capped at lambda[0]; the ratio is
+// found by bisection). Returns lambda itself when first >= lambda[0].
+std::vector<double> edge_layer_fractions(const std::vector<double>& lambda, double first);
+
 // Algorithm 4 for every surface node i: layermaking points at cumulative
-// distances sum_{k<=m} lambda_k d_i for m = 1..floor(M/2), then filler points
+// distances sum_{k<=m} lambda_k d_i for m = 1..floor(M/2) (with
+// FirstLayer::edge, the fractions of edge_layer_fractions), then filler points
 // every min(D_i, L_max) / M, all while dist <= D_i / 2. A node whose inward
 // check failed (sizing.inward_ok[i] == 0) or with d_i <= 0 gets no points:
 // its normal cannot be trusted to point into the volume. Points are ordered

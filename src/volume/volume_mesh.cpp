@@ -38,6 +38,8 @@ void check_params(const VolumeParams& p)
         throw InputError("volume: min_volume_fraction, filter_fraction and filler_filter_fraction must be >= 0",
                          "use 1e-3, 0.1 and 0.8");
     if (p.flip_sweeps < 0 || p.sliver_sweeps < 0) throw InputError("volume: sweep counts must be >= 0", "use 10 and 20");
+    if (!(p.layer_tolerance > 0) || !std::isfinite(p.layer_tolerance))
+        throw InputError("volume: layer_tolerance must be a finite number > 0", "use 0.15");
 }
 
 // Renumbers the interior points (ids n and up) in Hilbert order and sorts the
@@ -178,7 +180,14 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
     VolumeResult result;
 
     auto t0 = Clock::now();
-    const OffsetParams offset{params.M, params.growth, params.L_max, params.filter_fraction, params.filler_filter_fraction};
+    OffsetParams offset;
+    offset.M = params.M;
+    offset.growth = params.growth;
+    offset.first_layer = params.first_layer;
+    offset.K = params.K;
+    offset.L_max = params.L_max;
+    offset.filter_fraction = params.filter_fraction;
+    offset.filler_filter_fraction = params.filler_filter_fraction;
     const std::vector<OffsetPoint> raw = offset_points(surface, sizing, offset);
     const std::vector<OffsetPoint> points = filter_interior_points(raw, sizing, offset);
     result.offset_points = static_cast<int64_t>(raw.size());
@@ -190,7 +199,7 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
     // it gets a bounded retry: the whole insertion runs again with its
     // diagonal protected, so no interior point joins it and the tets to
     // re-triangulate are few and simple.
-    InsertionParams insertion{params.insertion_passes, params.min_volume_fraction, {}};
+    InsertionParams insertion{params.insertion_passes, params.min_volume_fraction, params.layer_tolerance, {}};
     InsertionResult ins;
     std::vector<int32_t> failed_quads;
     std::vector<Triangle> boundary;
@@ -266,23 +275,13 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
     }
     attribute_new_points(result, n);
 
-    // Realised layers and first-layer anisotropy.
+    // First-layer anisotropy, as inserted.
     t0 = Clock::now();
     const int layermaking = static_cast<int>(std::floor(params.M / 2));
-    std::vector<std::vector<char>> present(n);
     std::vector<double> first_thickness(n, std::numeric_limits<double>::quiet_NaN());
     for (size_t p = n; p < mesh.points.size(); ++p) {
         const int32_t g = result.point_generator[p], m = result.point_layer[p];
-        if (result.point_filler[p] || m > layermaking) continue;
-        if (present[g].empty()) present[g].assign(layermaking + 1, 0);
-        present[g][m] = 1;
-        if (m == 1) first_thickness[g] = distance(mesh.points[p], surface.points[g]);
-    }
-    result.realised_layers.assign(n, 0);
-    for (int32_t i = 0; i < n; ++i) {
-        int count = 0;
-        while (!present[i].empty() && count < layermaking && present[i][count + 1]) ++count;
-        result.realised_layers[i] = count;
+        if (!result.point_filler[p] && m == 1) first_thickness[g] = distance(mesh.points[p], surface.points[g]);
     }
     const VertexTable neighbours = vertex_neighbours(surface);
     result.near_wall_anisotropy.assign(n, std::numeric_limits<double>::quiet_NaN());
@@ -313,15 +312,15 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
         result.after_flips = quality_report(mesh);
         result.seconds_quality += seconds_since(t0);
         t0 = Clock::now();
-        // Layermaking points stay within a tenth of their layer's spacing
-        // (their distance from the node over their layer) of their
-        // distance from the wall: the layers are what the method is for
-        // (paper section 2.3).
+        // Layermaking points stay within layer_tolerance of their layer
+        // spacing of their distance from the wall: the layers are what the
+        // method is for (paper section 2.3).
         std::vector<LayerBound> layers(mesh.points.size());
-        for (size_t p = n; p < mesh.points.size(); ++p)
+        for (size_t p = n; p < ins.source.size(); ++p)
             if (!result.point_filler[p] && result.point_layer[p] >= 1 && result.point_layer[p] <= layermaking) {
-                const Vec3 from_node = mesh.points[p] - surface.points[result.point_generator[p]];
-                layers[p] = {mesh.points[p], normalized(from_node), 0.1 * norm(from_node) / result.point_layer[p]};
+                const OffsetPoint& op = points[ins.source[p] - n];
+                const Vec3 from_node = op.position - surface.points[op.generator];
+                layers[p] = {op.position, normalized(from_node), params.layer_tolerance * op.spacing};
             }
         const SliverCounts slivers =
             remove_slivers(mesh, n, params.sliver_aspect_ratio, params.sliver_sweeps, layers);
@@ -333,12 +332,35 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
         result.sliver_splits = split_surface_slivers(mesh, n, params.sliver_aspect_ratio, kQualityFloor);
         result.caps_peeled = peel_surface_caps(mesh, n, params.sliver_aspect_ratio);
         result.sliver_splits += split_surface_slivers(mesh, n, params.sliver_aspect_ratio, 0.0);
+        // Layer points stay on their layers (remove_slivers); a tet still
+        // below the floor gets one of its edges split instead, and the new
+        // points (free to move) another round of sliver removal; a few times
+        // while that helps.
+        for (int round = 0; round < 3; ++round) {
+            const QualityReport now = quality_report(mesh);
+            if (now.min_aspect_ratio >= params.aspect_ratio_floor) break;
+            const int64_t splits = split_surface_slivers(mesh, n, params.aspect_ratio_floor, 0.0, false);
+            if (splits == 0) break;
+            result.sliver_splits += splits;
+            const SliverCounts more = remove_slivers(mesh, n, params.sliver_aspect_ratio, params.sliver_sweeps, layers);
+            result.sliver_flips += more.flips, result.sliver_moves += more.moves;
+        }
         attribute_new_points(result, n);
         result.seconds_slivers = seconds_since(t0);
         t0 = Clock::now();
         result.after_slivers = quality_report(mesh);
         result.seconds_quality += seconds_since(t0);
     }
+
+    // The layers as they ended: every interior point that came from an
+    // offset point, where it is now.
+    t0 = Clock::now();
+    std::vector<FinalPoint> final_points;
+    for (size_t p = n; p < ins.source.size(); ++p)
+        final_points.push_back({ins.source[p] - n, mesh.points[p]});
+    result.layers = account_layers(surface, sizing, params.M, params.L_min, raw, points, ins.fates, final_points,
+                                   params.layer_tolerance);
+    result.seconds_quality += seconds_since(t0);
 
     t0 = Clock::now();
     renumber_for_locality(result, n);

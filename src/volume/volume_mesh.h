@@ -14,6 +14,7 @@
 #include "core/surface_mesh.h"
 #include "core/tet_mesh.h"
 #include "sizing/feature_size.h"
+#include "volume/layer_account.h"
 #include "volume/quality.h"
 
 #include <cstdint>
@@ -24,10 +25,18 @@
 namespace scalemesh {
 
 struct VolumeParams {
-    double K = 4.2;      // anisotropy of the layer elements (for the report only; the surface sets it)
+    double K = 4.2;      // anisotropy of the first layer (FirstLayer::edge) and of the report
     double M = 7;        // element layers across a cross-section, >= 1
     double growth = 1.0; // layer growth ratio lambda_{m+1} / lambda_m, >= 1; 1 = uniform (see layer_fractions)
+    FirstLayer first_layer = FirstLayer::edge; // the first layer's thickness: the node's mean surface edge
+                                               // length / K, or the paper's lambda_1 d (offset_points.h)
     double L_max = std::numeric_limits<double>::quiet_NaN(); // mm, required: filler spacing min(D, L_max) / M
+    double L_min = std::numeric_limits<double>::quiet_NaN(); // mm, for the layer account only: wall nodes with
+                                                             // D >= L_min are owed floor(M/2) layers (NaN: all)
+    double layer_tolerance = 0.15; // a layermaking point counts for its layer while it stays within this
+                                  // fraction of its layer spacing of where Algorithm 4 put it; the
+                                  // improvement keeps it there (the rings of a cross-section stay within
+                                  // 15% of their spacing, section 2.3)
     double filter_fraction = 0.1;      // interior-point filter radius, fraction of min(d_a, d_b) / M
                                        // (0.2 dropped the innermost layer point of ~7% of the wall
                                        // nodes on the tube, where the rays converge at the axis)
@@ -45,6 +54,8 @@ struct VolumeParams {
     int flip_sweeps = 10;        // at most this many sweeps of volume-criterion flips, >= 0
     int sliver_sweeps = 20;      // at most this many sweeps of sliver removal, >= 0
     double sliver_aspect_ratio = 0.15; // sliver removal works on tets with aspect ratio below this
+    double aspect_ratio_floor = 0.1;   // a tet still below this after sliver removal gets an edge split
+                                       // (the case's [volume] min_aspect_ratio)
     bool check_topology = true;  // section 2.3 check of every surface node (linear time)
 };
 
@@ -52,7 +63,7 @@ struct VolumeResult {
     TetMesh mesh; // points 0..n-1 are the surface points, boundary_faces the surface triangles
     TetFaceAdjacency adjacency; // tet_face_adjacency(mesh), for the exporters' checks
     QualityReport before_flips, after_flips, after_slivers;
-    std::vector<int32_t> realised_layers; // per surface node: consecutive layermaking points in the mesh
+    LayerAccount layers; // per surface node: realised layers, wall or opening node, why a layer is missing
     std::vector<int32_t> point_generator; // per mesh point: generating surface node (itself for surface points;
                                           // for a point made by a sliver edge split, the nearest surface point)
     std::vector<int32_t> point_layer;     // per mesh point: m (0 on the surface; 1 for edge-split points)

@@ -50,7 +50,9 @@ TEST_P(SampleCase, RunsAndMeetsItsExpectedBounds)
             std::ofstream(dir / "scalemesh.toml") << m.prefix() << "file = \"" << absolute << "\"" << m.suffix();
         }
     }
-    const CommandResult r = run_scalemesh({"run", dir.string(), "-q"});
+    // --strict: a missed floor of the case file (layer coverage, worst
+    // aspect ratio) fails the run.
+    const CommandResult r = run_scalemesh({"run", dir.string(), "-q", "--strict"});
     ASSERT_EQ(r.exit_code, 0) << r.err;
     EXPECT_TRUE(r.err.empty()) << "-q must print nothing: " << r.err;
 
@@ -128,9 +130,19 @@ TEST_P(SampleCase, RunsAndMeetsItsExpectedBounds)
                 EXPECT_LE(q, hi);
             } else if (k == "max_fraction_below_0_1")
                 EXPECT_LE(v["quality_after_sliver_removal"]["fraction_below_0_1"].get<double>(), *value.value<double>());
-            else if (k == "min_fraction_all_layers")
-                EXPECT_GE(v["surface_nodes_with_all_layers"].get<double>() / v["surface_nodes"].get<double>(),
-                          *value.value<double>());
+            else if (k == "min_layer_coverage") {
+                // Wall nodes with D >= L_min that keep all floor(M/2) layers.
+                const nlohmann::json& layers = report["layers"];
+                EXPECT_GT(layers["eligible_wall_nodes"].get<int64_t>(), 0);
+                EXPECT_GE(layers["coverage"].get<double>(), *value.value<double>()) << layers.dump();
+                EXPECT_EQ(layers["coverage"].get<double>(),
+                          layers["eligible_with_all_layers"].get<double>() / layers["eligible_wall_nodes"].get<double>());
+            } else if (k == "anisotropy_median") {
+                const auto [lo, hi] = bounds(value);
+                const double a = v["first_layer_anisotropy_median"].get<double>();
+                EXPECT_GE(a, lo);
+                EXPECT_LE(a, hi);
+            }
             else ADD_FAILURE() << "unknown key [volume] " << k << " in expected.toml";
         }
         // The stage's own timers: each part measured, none negative, and

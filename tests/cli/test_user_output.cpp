@@ -108,10 +108,12 @@ TEST(CliOutput, RunPrintsALinePerStageAndASummaryWhenNotATerminal)
     EXPECT_EQ(std::stol(m[1]), report["volume"]["tets"].get<long>());
     EXPECT_EQ(std::stol(m[2]), report["volume"]["points"].get<long>());
     EXPECT_EQ(std::stol(m[3]), report["openfoam"]["cells"].get<long>());
-    ASSERT_TRUE(std::regex_search(r.err, m, std::regex("\n  layers +([0-9]+) of ([0-9]+) surface nodes have all 3 layers")))
+    ASSERT_TRUE(std::regex_search(
+        r.err, m, std::regex("\n  layers +([0-9]+) of ([0-9]+) wall nodes with D >= L_min keep all 3 layers [^;\n]*(?:; ([0-9]+) opening nodes)?")))
         << r.err;
-    EXPECT_EQ(std::stol(m[1]), report["volume"]["surface_nodes_with_all_layers"].get<long>());
-    EXPECT_EQ(std::stol(m[2]), report["volume"]["surface_nodes"].get<long>());
+    EXPECT_EQ(std::stol(m[1]), report["layers"]["eligible_with_all_layers"].get<long>());
+    EXPECT_EQ(std::stol(m[2]), report["layers"]["eligible_wall_nodes"].get<long>());
+    EXPECT_EQ(m[3].matched ? std::stol(m[3]) : 0L, report["layers"]["opening_nodes"].get<long>());
     ASSERT_TRUE(std::regex_search(r.err, m, std::regex("\n  quality +worst aspect ratio ([0-9.]+),"))) << r.err;
     EXPECT_NEAR(std::stod(m[1]), report["volume"]["quality_after_sliver_removal"]["min_aspect_ratio"].get<double>(), 5e-5);
     ASSERT_TRUE(std::regex_search(r.err, m, std::regex("\n  time +(.*)\n"))) << r.err;
