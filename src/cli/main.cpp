@@ -194,7 +194,7 @@ int main(int argc, char** argv)
                             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
             if (verbosity != Verbosity::Quiet || strict)
                 for (const std::string& w : result.warnings)
-                    std::fprintf(stderr, "scalemesh: %s: %s\n", strict ? "error" : "warning", w.c_str());
+                    std::fprintf(stderr, "scalemesh: warning: %s\n", w.c_str());
             if (strict && !result.warnings.empty()) {
                 std::fprintf(stderr,
                              "scalemesh: error: the mesh misses %zu of the case's floors (--strict); the outputs "

@@ -7,6 +7,7 @@
 #include "importers/vdb_importer.h"
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <fstream>
 
@@ -197,6 +198,48 @@ TEST(Cli, RefusesBadCaseFilesWithoutWritingOutput)
     write_case("[input\nphantom = \"tube\"\n");
     expect_refused(run_scalemesh({"run", tmp.path.string()}), 2, "scalemesh.toml:1");
     EXPECT_EQ(tmp.files(), std::vector<std::string>{"scalemesh.toml"});
+}
+
+// The case's floors ([volume] min_layer_coverage, min_aspect_ratio,
+// min_dihedral_deg): a mesh that misses one gets a warning line and an entry
+// in report.json's warnings; with --strict the run fails with code 6 and
+// one error line, its outputs written for inspection.
+TEST(Cli, AMissedFloorWarnsAndFailsUnderStrict)
+{
+    const TempDir tmp;
+    const auto write_case = [&](const std::string& volume) {
+        std::ofstream(tmp.path / "scalemesh.toml") << "[input]\nphantom = \"tube\"\nvoxel_size = 0.5\n[volume]\n" << volume;
+    };
+    const auto warnings = [&] {
+        std::ifstream in(tmp.path / "report.json");
+        return nlohmann::json::parse(in)["warnings"];
+    };
+    write_case("min_dihedral_deg = 0\n");
+    CommandResult r = run_scalemesh({"run", tmp.path.string(), "--strict"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
+    EXPECT_TRUE(warnings().empty());
+
+    write_case("min_dihedral_deg = 60\n"); // no tet mesh of a tube has all its dihedral angles above 60 degrees
+    r = run_scalemesh({"run", tmp.path.string()});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.err.find("scalemesh: warning: the smallest dihedral angle is "), std::string::npos) << r.err;
+    ASSERT_EQ(warnings().size(), 1u);
+    EXPECT_NE(warnings()[0].get<std::string>().find("min_dihedral_deg"), std::string::npos);
+    EXPECT_TRUE(run_scalemesh({"run", tmp.path.string(), "-q"}).err.empty());
+
+    std::filesystem::remove(tmp.path / "mesh.msh");
+    r = run_scalemesh({"run", tmp.path.string(), "-q", "--strict"});
+    expect_refused(r, 6, "--strict");
+    EXPECT_NE(r.err.find("scalemesh: warning: the smallest dihedral angle"), std::string::npos) << r.err;
+    EXPECT_TRUE(std::filesystem::exists(tmp.path / "mesh.msh"));
+
+    write_case("first_layer = \"sideways\"\n");
+    expect_refused(run_scalemesh({"run", tmp.path.string()}), 2, "first_layer");
+    write_case("layer_tolerance = 0\n");
+    expect_refused(run_scalemesh({"run", tmp.path.string()}), 2, "layer_tolerance");
+    write_case("min_layer_coverage = 1.5\n");
+    expect_refused(run_scalemesh({"run", tmp.path.string()}), 2, "min_layer_coverage");
 }
 
 TEST(Cli, AFailedRunLeavesEarlierOutputsUntouched)
