@@ -2,8 +2,8 @@
 """The layer and quality figures of every sample case, as docs/method.md shows them.
 
 Runs `scalemesh -q run --strict --threads 2` on a copy of each case under
-cases/ (and of aorta_surface at M = 16, and the tube and torus with the
-paper's first layer), reads report.json, runs OpenFOAM's checkMesh, and
+cases/ (aorta_surface_m16 is the aorta at M = 16), and of the tube and the
+torus with the paper's first layer, reads report.json, runs OpenFOAM's checkMesh, and
 prints a markdown table; with --doc FILE it replaces the table between the
 markers `<!-- layer figures -->` and `<!-- end layer figures -->` in FILE.
 
@@ -98,7 +98,6 @@ def main():
     cases = sorted(d for d in os.listdir(os.path.join(ROOT, "cases"))
                    if os.path.exists(os.path.join(ROOT, "cases", d, "scalemesh.toml")))
     runs = [(c, c, {}) for c in cases]
-    runs += [("aorta_surface", "aorta_surface, M = 16", {"sizing": {"M": 16}})]
     runs += [(c, f"{c}, first_layer = paper", {"volume": {"first_layer": '"paper"'}}) for c in ("tube", "torus")]
     work = tempfile.mkdtemp(prefix="scalemesh-layer-figures-")
     try:
