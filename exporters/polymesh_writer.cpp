@@ -3,10 +3,8 @@
 #include "core/atomic_file.h"
 #include "core/errors.h"
 
-#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_pipeline.h>
-#include <tbb/parallel_reduce.h>
 #include <tbb/parallel_sort.h>
 #include <tbb/task_arena.h>
 
@@ -28,8 +26,8 @@ namespace {
 // The files are cut into blocks fixed by the mesh alone (so many cells, faces
 // or points each), formatted in parallel and written in order: the bytes do
 // not depend on the number of threads, and no file is ever held whole.
-constexpr size_t kCellsPerBlock = 16384;  // their internal faces: up to 4 each, about 2 on average
-constexpr size_t kItemsPerBlock = 32768;  // boundary faces, points or plain labels
+constexpr size_t kCellsPerBlock = 16384; // and their internal faces, about 2 per cell
+constexpr size_t kItemsPerBlock = 32768; // boundary faces, points or face offsets
 
 // A growing byte buffer that numbers are formatted straight into.
 class Text {
@@ -66,7 +64,7 @@ private:
     {
         const size_t capacity = std::max(needed, 2 * capacity_ + 4096);
         std::unique_ptr<char[]> data(new char[capacity]);
-        std::memcpy(data.get(), data_.get(), size_);
+        if (size_ > 0) std::memcpy(data.get(), data_.get(), size_);
         data_ = std::move(data);
         capacity_ = capacity;
     }
