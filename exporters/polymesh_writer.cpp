@@ -3,11 +3,19 @@
 #include "core/atomic_file.h"
 #include "core/errors.h"
 
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_pipeline.h>
+#include <tbb/parallel_sort.h>
+#include <tbb/task_arena.h>
+
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <memory>
+#include <mutex>
 #include <sstream>
 #include <string_view>
 
@@ -15,30 +23,62 @@ namespace scalemesh {
 
 namespace {
 
-struct PolyFace {
-    Triangle points; // normal from owner to neighbour (or out of the mesh)
-    int32_t owner;
-    int32_t neighbour; // -1 on the boundary
-    int32_t patch;     // boundary only
+// The files are cut into blocks fixed by the mesh alone (so many cells, faces
+// or points each), formatted in parallel and written in order: the bytes do
+// not depend on the number of threads, and no file is ever held whole.
+constexpr size_t kCellsPerBlock = 16384; // and their internal faces, about 2 per cell
+constexpr size_t kItemsPerBlock = 32768; // boundary faces, points or face offsets
+
+// A growing byte buffer that numbers are formatted straight into.
+class Text {
+public:
+    // Room for `n` more bytes at the returned pointer; `commit` says how many were used.
+    char* room(size_t n)
+    {
+        if (size_ + n > capacity_) grow(size_ + n);
+        return data_.get() + size_;
+    }
+    void commit(char* end) { size_ = static_cast<size_t>(end - data_.get()); }
+
+    void append(std::string_view s) { commit(std::copy(s.begin(), s.end(), room(s.size()))); }
+    void bytes(const void* p, size_t n)
+    {
+        char* at = room(n);
+        std::memcpy(at, p, n);
+        size_ += n;
+    }
+    template <typename Number>
+    void number(Number value, char after)
+    {
+        char* at = room(40);
+        at = std::to_chars(at, at + 39, value).ptr;
+        *at++ = after;
+        commit(at);
+    }
+
+    void clear() { size_ = 0; }
+    std::string_view view() const { return {data_.get(), size_}; }
+
+private:
+    void grow(size_t needed)
+    {
+        const size_t capacity = std::max(needed, 2 * capacity_ + 4096);
+        std::unique_ptr<char[]> data(new char[capacity]);
+        if (size_ > 0) std::memcpy(data.get(), data_.get(), size_);
+        data_ = std::move(data);
+        capacity_ = capacity;
+    }
+
+    std::unique_ptr<char[]> data_;
+    size_t size_ = 0, capacity_ = 0;
 };
 
-std::array<int32_t, 3> sorted_key(const Triangle& t)
-{
-    std::array<int32_t, 3> k{t[0], t[1], t[2]};
-    std::sort(k.begin(), k.end());
-    return k;
-}
-
-// A writer of OpenFOAM tokens, ASCII or binary blocks. Numbers are formatted
-// with std::to_chars into a buffer that goes to the file a megabyte at a time,
-// so a large mesh is neither held as text nor passed through iostream's
-// per-number formatting.
-class FoamWriter {
+// One OpenFOAM file: its header and the small text around its lists.
+class FoamFile {
 public:
-    FoamWriter(const std::filesystem::path& path, bool binary) : out_(path, std::ios::binary), binary_(binary)
+    FoamFile(const std::filesystem::path& path, bool binary) : path_(path), out_(path, std::ios::binary), binary_(binary)
     {
         if (!out_) throw IoError(path.string(), "cannot open for writing");
-        buffer_.reserve(kBufferBytes + 256);
     }
 
     void header(const std::string& cls, const std::string& object, const std::string& note = "")
@@ -58,122 +98,163 @@ public:
         text(";\n}\n\n");
     }
 
-    // A labelList of n labels, label i being label(i).
-    template <typename Label>
-    void labels(size_t n, const Label& label)
-    {
-        number(static_cast<int64_t>(n));
-        text("\n(");
-        if (!binary_) text("\n");
-        for (size_t i = 0; i < n; ++i) {
-            const int32_t value = label(i);
-            if (binary_) {
-                bytes(&value, sizeof value);
-            } else {
-                number(value);
-                character('\n');
-            }
-        }
-        text(")\n");
-    }
+    void text(std::string_view s) { out_.write(s.data(), static_cast<std::streamsize>(s.size())); }
 
-    void points(const std::vector<Vec3>& points, double scale)
+    // The opening of a list of n entries: "n\n(" and, in ASCII, a newline.
+    void open_list(size_t n)
     {
-        number(static_cast<int64_t>(points.size()));
-        text("\n(");
-        if (binary_) {
-            for (const Vec3& p : points) {
-                const double xyz[3] = {p.x * scale, p.y * scale, p.z * scale};
-                bytes(xyz, sizeof xyz);
-            }
-        } else {
-            text("\n");
-            for (const Vec3& p : points) {
-                character('(');
-                for (int k = 0; k < 3; ++k) {
-                    number(p[k] * scale);
-                    character(k < 2 ? ' ' : ')');
-                }
-                character('\n');
-            }
-        }
-        text(")\n");
+        char digits[24];
+        text(std::string_view(digits, static_cast<size_t>(std::to_chars(digits, digits + sizeof digits, n).ptr - digits)));
+        text(binary_ ? "\n(" : "\n(\n");
     }
+    void close_list() { text(")\n"); }
 
-    void faces(const std::vector<PolyFace>& faces)
-    {
-        if (binary_) {
-            // faceCompactList: the offsets, then the point labels.
-            labels(faces.size() + 1, [](size_t f) { return static_cast<int32_t>(3 * f); });
-            labels(3 * faces.size(), [&](size_t i) { return faces[i / 3].points[i % 3]; });
-            return;
-        }
-        number(static_cast<int64_t>(faces.size()));
-        text("\n(\n");
-        for (const PolyFace& f : faces) {
-            text("3(");
-            for (int k = 0; k < 3; ++k) {
-                number(f.points[k]);
-                character(k < 2 ? ' ' : ')');
-            }
-            character('\n');
-        }
-        text(")\n");
-    }
-
-    void text(std::string_view s)
-    {
-        buffer_.append(s);
-        spill();
-    }
-
-    void finish(const std::filesystem::path& path)
+    void finish()
     {
         text("\n// ************************************************************************* //\n");
-        flush();
         out_.flush();
-        if (!out_) throw IoError(path.string(), "cannot write the file (disk full?)");
+        if (!out_) throw IoError(path_.string(), "cannot write the file (disk full?)");
     }
 
 private:
-    static constexpr size_t kBufferBytes = size_t(1) << 20;
-
-    void character(char c)
-    {
-        buffer_.push_back(c);
-        spill();
-    }
-
-    template <typename Number>
-    void number(Number value)
-    {
-        char digits[32];
-        const auto r = std::to_chars(digits, digits + sizeof digits, value);
-        buffer_.append(digits, r.ptr);
-        spill();
-    }
-
-    void bytes(const void* data, size_t size)
-    {
-        buffer_.append(static_cast<const char*>(data), size);
-        spill();
-    }
-
-    void spill()
-    {
-        if (buffer_.size() >= kBufferBytes) flush();
-    }
-
-    void flush()
-    {
-        out_.write(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
-        buffer_.clear();
-    }
-
+    std::filesystem::path path_;
     std::ofstream out_;
     bool binary_;
-    std::string buffer_;
 };
+
+// Formats blocks 0 .. count - 1 in parallel, format(block, texts) filling one
+// text per file, and appends the texts to `files` in block order, through a
+// bounded set of buffers: the files are never held whole.
+template <size_t Files, typename Format>
+void stream_blocks(size_t count, const std::array<FoamFile*, Files>& files, const Format& format)
+{
+    if (count == 0) return;
+    struct Job {
+        size_t block = 0;
+        std::array<Text, Files> texts;
+    };
+    const size_t tokens = 2 * static_cast<size_t>(tbb::this_task_arena::max_concurrency()) + 2;
+    std::vector<std::unique_ptr<Job>> free;
+    std::mutex free_mutex;
+    size_t next = 0;
+    tbb::parallel_pipeline(
+        tokens,
+        tbb::make_filter<void, Job*>(tbb::filter_mode::serial_in_order,
+                                     [&](tbb::flow_control& control) -> Job* {
+                                         if (next == count) {
+                                             control.stop();
+                                             return nullptr;
+                                         }
+                                         std::unique_ptr<Job> job;
+                                         {
+                                             std::lock_guard lock(free_mutex);
+                                             if (!free.empty()) {
+                                                 job = std::move(free.back());
+                                                 free.pop_back();
+                                             }
+                                         }
+                                         if (!job) job = std::make_unique<Job>();
+                                         job->block = next++;
+                                         return job.release();
+                                     }) &
+            tbb::make_filter<Job*, Job*>(tbb::filter_mode::parallel,
+                                         [&](Job* job) {
+                                             for (Text& t : job->texts) t.clear();
+                                             format(job->block, job->texts);
+                                             return job;
+                                         }) &
+            tbb::make_filter<Job*, void>(tbb::filter_mode::serial_in_order, [&](Job* raw) {
+                std::unique_ptr<Job> job(raw);
+                for (size_t f = 0; f < Files; ++f) files[f]->text(job->texts[f].view());
+                std::lock_guard lock(free_mutex);
+                free.push_back(std::move(job));
+            }));
+}
+
+// Labels in an OpenFOAM list: raw 32-bit in binary, one per line in ASCII.
+void put_label(Text& out, int32_t value, bool binary)
+{
+    if (binary) out.bytes(&value, sizeof value);
+    else out.number(value, '\n');
+}
+
+// The faces of the mesh in polyMesh order, without holding them: the internal
+// faces are generated from the cells block by block, the boundary faces are
+// kept as their slots 4 t + k (a few per cent of the faces).
+class FaceOrder {
+public:
+    FaceOrder(const TetMesh& mesh, const TetFaceAdjacency& adjacency) : mesh_(mesh), adjacency_(adjacency) {}
+
+    size_t cell_blocks() const { return (mesh_.tets.size() + kCellsPerBlock - 1) / kCellsPerBlock; }
+    size_t boundary_blocks() const { return (boundary.size() + kItemsPerBlock - 1) / kItemsPerBlock; }
+
+    // Each cell owns the faces it shares with higher cells, taken in the order
+    // of those neighbours: upper-triangular order without sorting the faces.
+    // Its outward orientation points to the neighbour. visit(owner,
+    // neighbour, points) for each internal face of the cells of `block`.
+    template <typename Visit>
+    void internal_faces(size_t block, const Visit& visit) const
+    {
+        const size_t last = std::min(mesh_.tets.size(), (block + 1) * kCellsPerBlock);
+        for (size_t t = block * kCellsPerBlock; t < last; ++t) {
+            int32_t across[4], face[4];
+            int n = 0;
+            for (int k = 0; k < 4; ++k) {
+                const int32_t other = adjacency_.across[4 * t + k];
+                if (other <= static_cast<int32_t>(t)) continue;
+                // Insertion by neighbour; equal neighbours (only in a mesh of
+                // two copies of one tet) keep the order of k.
+                int i = n++;
+                for (; i > 0 && across[i - 1] > other; --i) {
+                    across[i] = across[i - 1];
+                    face[i] = face[i - 1];
+                }
+                across[i] = other;
+                face[i] = k;
+            }
+            for (int i = 0; i < n; ++i) visit(static_cast<int32_t>(t), across[i], tet_face(mesh_.tets[t], face[i]));
+        }
+    }
+
+    // visit(owner, points) for the boundary faces of `block`.
+    template <typename Visit>
+    void boundary_faces(size_t block, const Visit& visit) const
+    {
+        const size_t last = std::min(boundary.size(), (block + 1) * kItemsPerBlock);
+        for (size_t i = block * kItemsPerBlock; i < last; ++i) {
+            const int32_t slot = boundary[i];
+            visit(slot / 4, tet_face(mesh_.tets[slot / 4], slot % 4));
+        }
+    }
+
+    // visit(owner, neighbour or -1, points) for the faces of block b of
+    // cell_blocks() + boundary_blocks(): the whole face list in order.
+    template <typename Visit>
+    void faces(size_t b, const Visit& visit) const
+    {
+        if (b < cell_blocks()) {
+            internal_faces(b, visit);
+        } else {
+            boundary_faces(b - cell_blocks(), [&](int32_t owner, const Triangle& points) { visit(owner, -1, points); });
+        }
+    }
+    size_t face_blocks() const { return cell_blocks() + boundary_blocks(); }
+
+    int64_t internal_count = 0;
+    std::vector<int32_t> boundary; // slots 4 t + k, grouped by patch, in cell order within a patch
+    std::vector<int64_t> patch_faces;
+
+private:
+    const TetMesh& mesh_;
+    const TetFaceAdjacency& adjacency_;
+};
+
+// Rotates a triangle so that its smallest index comes first (same orientation).
+Triangle canonical(Triangle t)
+{
+    while (t[0] > t[1] || t[0] > t[2]) t = {t[1], t[2], t[0]};
+    return t;
+}
 
 std::string patch_name(const TetMesh& mesh, int32_t patch)
 {
@@ -181,132 +262,215 @@ std::string patch_name(const TetMesh& mesh, int32_t patch)
     return patch == 0 ? "wall" : "patch_" + std::to_string(patch);
 }
 
-} // namespace
-
-PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& case_dir, const PolyMeshOptions& options)
+// Validates the mesh (nothing the next tool would choke on is written) and
+// lays out its faces: the count of internal faces, the boundary faces by
+// patch. One parallel pass over the cells does both.
+FaceOrder lay_out_faces(const TetMesh& mesh, const TetFaceAdjacency& adjacency)
 {
-    // Validate first: nothing the next tool would choke on is written.
-    if (mesh.tets.empty()) throw StageError("polyMesh export", "the mesh has no cells");
-    TetFaceAdjacency computed;
-    if (!options.adjacency) computed = tet_face_adjacency(mesh);
-    const TetFaceAdjacency& adjacency = options.adjacency ? *options.adjacency : computed;
-    const TetMeshFacts facts = tet_mesh_facts(mesh, adjacency);
-    if (facts.nonpositive_tets > 0)
-        throw StageError("polyMesh export", std::to_string(facts.nonpositive_tets) +
-                                                " tets have zero or negative volume (inverted cells)");
-    if (facts.overshared_faces > 0)
-        throw StageError("polyMesh export", std::to_string(facts.overshared_faces) + " faces are shared by more than two tets");
-    if (!facts.boundary_matches)
-        throw StageError("polyMesh export", "the mesh's open faces (" + std::to_string(facts.boundary_faces) +
-                                                ") are not exactly its boundary faces (" +
-                                                std::to_string(mesh.boundary_faces.size()) + "), same orientation");
+    if (adjacency.across.size() != 4 * mesh.tets.size())
+        throw std::invalid_argument("the face adjacency is not that of this mesh (" +
+                                    std::to_string(adjacency.across.size()) + " faces for " +
+                                    std::to_string(mesh.tets.size()) + " tets)");
     if (!mesh.boundary_patch.empty() && mesh.boundary_patch.size() != mesh.boundary_faces.size())
         throw StageError("polyMesh export", "boundary_patch does not have one entry per boundary face");
 
-    // Patch of each boundary face, by its sorted point ids.
-    std::vector<std::pair<std::array<int32_t, 3>, int32_t>> patch_of;
-    patch_of.reserve(mesh.boundary_faces.size());
+    // The patch of each boundary face by the face as written (smallest point
+    // first, orientation kept): an open face of a cell must find itself here.
+    struct Keyed {
+        Triangle face;
+        int32_t patch;
+        bool operator<(const Keyed& o) const { return face < o.face; }
+    };
+    std::vector<Keyed> patch_of(mesh.boundary_faces.size());
     int32_t patch_count = 1;
     for (size_t f = 0; f < mesh.boundary_faces.size(); ++f) {
         const int32_t patch = mesh.boundary_patch.empty() ? 0 : mesh.boundary_patch[f];
         if (patch < 0) throw StageError("polyMesh export", "boundary face " + std::to_string(f) + " has a negative patch id");
         patch_count = std::max(patch_count, patch + 1);
-        patch_of.emplace_back(sorted_key(mesh.boundary_faces[f]), patch);
+        patch_of[f] = {canonical(mesh.boundary_faces[f]), patch};
     }
-    std::sort(patch_of.begin(), patch_of.end());
+    tbb::parallel_sort(patch_of.begin(), patch_of.end());
+    bool repeated = false;
+    for (size_t f = 1; f < patch_of.size(); ++f) repeated = repeated || !(patch_of[f - 1] < patch_of[f]);
 
-    // Cells in order; each cell owns the faces it shares with higher cells,
-    // taken in the order of those neighbours: upper-triangular order without
-    // sorting the faces. Its outward orientation points to the neighbour.
-    std::vector<PolyFace> faces, boundary;
-    faces.reserve(2 * mesh.tets.size() + mesh.boundary_faces.size() / 2 + 1);
-    boundary.reserve(mesh.boundary_faces.size());
-    for (int32_t t = 0; t < static_cast<int32_t>(mesh.tets.size()); ++t) {
-        const size_t first = faces.size();
-        for (int k = 0; k < 4; ++k) {
-            const int32_t across = adjacency.across[4 * size_t(t) + k];
-            const Triangle points = tet_face(mesh.tets[t], k);
-            if (across > t) {
-                faces.push_back({points, t, across, -1});
-            } else if (across == TetFaceAdjacency::kBoundary) {
-                const auto it = std::lower_bound(patch_of.begin(), patch_of.end(), std::make_pair(sorted_key(points), INT32_MIN));
-                boundary.push_back({points, t, -1, it->second});
+    FaceOrder order(mesh, adjacency);
+    struct Block {
+        int64_t internal = 0, nonpositive = 0, unmatched = 0;
+        std::vector<std::pair<int32_t, int32_t>> boundary; // (patch, slot)
+    };
+    std::vector<Block> blocks(order.cell_blocks());
+    tbb::parallel_for(size_t(0), blocks.size(), [&](size_t b) {
+        Block& block = blocks[b];
+        const size_t last = std::min(mesh.tets.size(), (b + 1) * kCellsPerBlock);
+        for (size_t t = b * kCellsPerBlock; t < last; ++t) {
+            const Tet& tet = mesh.tets[t];
+            if (!(tet_volume6(mesh.points[tet[0]], mesh.points[tet[1]], mesh.points[tet[2]], mesh.points[tet[3]]) > 0))
+                ++block.nonpositive;
+            for (int k = 0; k < 4; ++k) {
+                const int32_t across = adjacency.across[4 * t + k];
+                if (across > static_cast<int32_t>(t)) {
+                    ++block.internal;
+                } else if (across == TetFaceAdjacency::kBoundary) {
+                    const Keyed key{canonical(tet_face(tet, k)), 0};
+                    const auto it = std::lower_bound(patch_of.begin(), patch_of.end(), key);
+                    if (it == patch_of.end() || it->face != key.face) ++block.unmatched;
+                    else block.boundary.emplace_back(it->patch, static_cast<int32_t>(4 * t + k));
+                }
             }
         }
-        std::sort(faces.begin() + first, faces.end(),
-                  [](const PolyFace& a, const PolyFace& b) { return a.neighbour < b.neighbour; });
+    });
+    int64_t nonpositive = 0, unmatched = 0, open = 0;
+    order.patch_faces.assign(patch_count, 0);
+    for (const Block& block : blocks) {
+        order.internal_count += block.internal;
+        nonpositive += block.nonpositive;
+        unmatched += block.unmatched;
+        open += block.unmatched + static_cast<int64_t>(block.boundary.size());
+        for (const auto& [patch, slot] : block.boundary) ++order.patch_faces[patch];
     }
-    const size_t n_internal = faces.size();
-    std::stable_sort(boundary.begin(), boundary.end(), [](const PolyFace& a, const PolyFace& b) { return a.patch < b.patch; });
+    if (nonpositive > 0)
+        throw StageError("polyMesh export", std::to_string(nonpositive) + " tets have zero or negative volume (inverted cells)");
+    if (adjacency.overshared_faces > 0)
+        throw StageError("polyMesh export", std::to_string(adjacency.overshared_faces) +
+                                                " faces are shared by more than two tets");
+    // Open faces are distinct, so they are exactly the boundary faces when
+    // each finds one, the boundary faces are distinct, and the counts agree.
+    if (unmatched > 0 || repeated || open != static_cast<int64_t>(mesh.boundary_faces.size()))
+        throw StageError("polyMesh export", "the mesh's open faces (" + std::to_string(open) +
+                                                ") are not exactly its boundary faces (" +
+                                                std::to_string(mesh.boundary_faces.size()) + "), same orientation");
+
+    // Grouped by patch, in cell order within each patch.
+    std::vector<int64_t> cursor(patch_count, 0);
+    for (int32_t p = 1; p < patch_count; ++p) cursor[p] = cursor[p - 1] + order.patch_faces[p - 1];
+    order.boundary.resize(static_cast<size_t>(open));
+    for (const Block& block : blocks)
+        for (const auto& [patch, slot] : block.boundary) order.boundary[cursor[patch]++] = slot;
+    return order;
+}
+
+} // namespace
+
+PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& case_dir, const PolyMeshOptions& options)
+{
+    if (mesh.tets.empty()) throw StageError("polyMesh export", "the mesh has no cells");
+    if (!(options.scale > 0) || !std::isfinite(options.scale))
+        throw StageError("polyMesh export", "the coordinate scale must be a positive number");
+    TetFaceAdjacency computed;
+    if (!options.adjacency) computed = tet_face_adjacency(mesh);
+    const TetFaceAdjacency& adjacency = options.adjacency ? *options.adjacency : computed;
+    const FaceOrder order = lay_out_faces(mesh, adjacency);
+    const int32_t patch_count = static_cast<int32_t>(order.patch_faces.size());
+    std::vector<std::string> types(patch_count);
+    for (int32_t p = 0; p < patch_count; ++p) {
+        types[p] = p < static_cast<int32_t>(options.patch_types.size()) ? options.patch_types[p] : "wall";
+        if (types[p] != "wall" && types[p] != "patch")
+            throw StageError("polyMesh export", "patch type '" + types[p] + "' is neither wall nor patch");
+    }
 
     PolyMeshCounts counts;
     counts.points = static_cast<int64_t>(mesh.points.size());
     counts.cells = static_cast<int64_t>(mesh.tets.size());
-    counts.internal_faces = static_cast<int64_t>(n_internal);
-    counts.faces = counts.internal_faces + static_cast<int64_t>(boundary.size());
-    counts.patch_faces.assign(patch_count, 0);
-    for (const PolyFace& f : boundary) ++counts.patch_faces[f.patch];
+    counts.internal_faces = order.internal_count;
+    counts.faces = counts.internal_faces + static_cast<int64_t>(order.boundary.size());
+    counts.patch_faces = order.patch_faces;
 
     const std::filesystem::path dir = case_dir / "constant" / "polyMesh";
     std::error_code ec;
     std::filesystem::create_directories(dir, ec);
     if (ec) throw IoError(dir.string(), "cannot create the directory: " + ec.message());
 
+    const bool binary = options.binary;
     std::vector<std::unique_ptr<AtomicOutput>> outputs;
     auto open = [&](const char* name) {
         outputs.push_back(std::make_unique<AtomicOutput>(dir / name));
-        return FoamWriter(outputs.back()->temporary(), options.binary);
+        return FoamFile(outputs.back()->temporary(), binary);
     };
     std::ostringstream note;
     note << "nPoints:" << counts.points << " nCells:" << counts.cells << " nFaces:" << counts.faces
          << " nInternalFaces:" << counts.internal_faces;
+    const size_t n_faces = static_cast<size_t>(counts.faces);
 
     {
-        FoamWriter w = open("points");
-        w.header("vectorField", "points");
-        if (!(options.scale > 0) || !std::isfinite(options.scale))
-            throw StageError("polyMesh export", "the coordinate scale must be a positive number");
-        w.points(mesh.points, options.scale);
-        w.finish(dir / "points");
-    }
-    faces.insert(faces.end(), boundary.begin(), boundary.end());
-    {
-        FoamWriter w = open("faces");
-        w.header(options.binary ? "faceCompactList" : "faceList", "faces");
-        w.faces(faces);
-        w.finish(dir / "faces");
-    }
-    {
-        FoamWriter w = open("owner");
-        w.header("labelList", "owner", note.str());
-        w.labels(faces.size(), [&](size_t f) { return faces[f].owner; });
-        w.finish(dir / "owner");
-    }
-    {
-        FoamWriter w = open("neighbour");
-        w.header("labelList", "neighbour", note.str());
-        w.labels(n_internal, [&](size_t f) { return faces[f].neighbour; });
-        w.finish(dir / "neighbour");
+        FoamFile points = open("points");
+        points.header("vectorField", "points");
+        points.open_list(mesh.points.size());
+        const double scale = options.scale;
+        stream_blocks<1>((mesh.points.size() + kItemsPerBlock - 1) / kItemsPerBlock, {&points}, [&](size_t b, auto& out) {
+            const size_t last = std::min(mesh.points.size(), (b + 1) * kItemsPerBlock);
+            for (size_t i = b * kItemsPerBlock; i < last; ++i) {
+                const Vec3& p = mesh.points[i];
+                const double xyz[3] = {p.x * scale, p.y * scale, p.z * scale};
+                if (binary) {
+                    out[0].bytes(xyz, sizeof xyz);
+                } else {
+                    out[0].append("(");
+                    out[0].number(xyz[0], ' ');
+                    out[0].number(xyz[1], ' ');
+                    out[0].number(xyz[2], ')');
+                    out[0].append("\n");
+                }
+            }
+        });
+        points.close_list();
+        points.finish();
     }
     {
-        FoamWriter w = open("boundary");
+        // faces, owner and neighbour from one pass over the faces.
+        FoamFile faces = open("faces"), owner = open("owner"), neighbour = open("neighbour");
+        faces.header(binary ? "faceCompactList" : "faceList", "faces");
+        if (binary) {
+            // faceCompactList: the offsets, then the point labels.
+            faces.open_list(n_faces + 1);
+            stream_blocks<1>(n_faces / kItemsPerBlock + 1, {&faces}, [&](size_t b, auto& out) {
+                const size_t last = std::min(n_faces + 1, (b + 1) * kItemsPerBlock);
+                for (size_t f = b * kItemsPerBlock; f < last; ++f) put_label(out[0], static_cast<int32_t>(3 * f), true);
+            });
+            faces.close_list();
+            faces.open_list(3 * n_faces);
+        } else {
+            faces.open_list(n_faces);
+        }
+        owner.header("labelList", "owner", note.str());
+        owner.open_list(n_faces);
+        neighbour.header("labelList", "neighbour", note.str());
+        neighbour.open_list(static_cast<size_t>(counts.internal_faces));
+        stream_blocks<3>(order.face_blocks(), {&faces, &owner, &neighbour}, [&](size_t b, auto& out) {
+            order.faces(b, [&](int32_t cell, int32_t across, const Triangle& points) {
+                if (binary) {
+                    out[0].bytes(points.data(), sizeof points);
+                } else {
+                    out[0].append("3(");
+                    out[0].number(points[0], ' ');
+                    out[0].number(points[1], ' ');
+                    out[0].number(points[2], ')');
+                    out[0].append("\n");
+                }
+                put_label(out[1], cell, binary);
+                if (across >= 0) put_label(out[2], across, binary);
+            });
+        });
+        for (FoamFile* file : {&faces, &owner, &neighbour}) {
+            file->close_list();
+            file->finish();
+        }
+    }
+    {
+        FoamFile w = open("boundary");
         w.header("polyBoundaryMesh", "boundary");
         std::ostringstream out;
         out << patch_count << "\n(\n";
         int64_t start = counts.internal_faces;
         for (int32_t p = 0; p < patch_count; ++p) {
-            const std::string type = p < static_cast<int32_t>(options.patch_types.size()) ? options.patch_types[p] : "wall";
-            if (type != "wall" && type != "patch")
-                throw StageError("polyMesh export", "patch type '" + type + "' is neither wall nor patch");
-            out << "    " << patch_name(mesh, p) << "\n    {\n        type            " << type << ";\n";
-            if (type == "wall") out << "        inGroups        List<word> 1(wall);\n";
+            out << "    " << patch_name(mesh, p) << "\n    {\n        type            " << types[p] << ";\n";
+            if (types[p] == "wall") out << "        inGroups        List<word> 1(wall);\n";
             out << "        nFaces          " << counts.patch_faces[p] << ";\n        startFace       " << start
                 << ";\n    }\n";
             start += counts.patch_faces[p];
         }
         out << ")\n";
         w.text(out.str());
-        w.finish(dir / "boundary");
+        w.finish();
     }
     if (options.staged) {
         for (auto& out : outputs) options.staged->push_back(std::move(out));

@@ -45,6 +45,10 @@ struct PolyMeshCounts {
 // a StageError naming what failed, and no file is written. The five files are
 // written under temporary names and moved into place together at the end.
 // Throws IoError when a file cannot be written.
+//
+// The faces are generated from the cells, never held as a list, and the files
+// are formatted in parallel (TBB) in blocks fixed by the mesh and written in
+// order: the bytes are the same on any number of threads.
 PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& case_dir,
                               const PolyMeshOptions& options = {});
 
