@@ -128,8 +128,8 @@ LayerAccount account_layers(const SurfaceMesh& surface, const FeatureSize& sizin
         if (r < L) {
             const size_t s = i * L + r;
             LayerLoss why = LayerLoss::none;
-            if (!sizing.inward_ok.empty() && !sizing.inward_ok[i]) why = LayerLoss::normal;
-            else if (state[s] == kNone) why = LayerLoss::short_ray;
+            if (state[s] == kNone)
+                why = !sizing.inward_ok.empty() && !sizing.inward_ok[i] && r == 0 ? LayerLoss::normal : LayerLoss::short_ray;
             else if (state[s] == kFiltered) why = LayerLoss::filtered;
             else if (state[s] == kMoved) why = LayerLoss::moved;
             else switch (fates[kept_at[s]]) {

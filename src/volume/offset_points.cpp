@@ -1,6 +1,5 @@
 #include "volume/offset_points.h"
 
-#include "core/adjacency.h"
 #include "core/errors.h"
 
 #include <tbb/blocked_range.h>
@@ -63,6 +62,32 @@ std::vector<double> edge_layer_fractions(const std::vector<double>& lambda, doub
     return out;
 }
 
+std::optional<Vec3> repaired_inward_direction(const SurfaceMesh& surface, const VertexTable& fans, int32_t v,
+                                              const Vec3& start, double margin)
+{
+    std::vector<Vec3> faces;
+    for (const int32_t* f = fans.begin(v); f != fans.end(v); ++f) {
+        const Triangle& t = surface.triangles[*f];
+        const Vec3 normal = cross(surface.points[t[1]] - surface.points[t[0]], surface.points[t[2]] - surface.points[t[0]]);
+        if (norm2(normal) > 0) faces.push_back(normalized(normal));
+    }
+    if (faces.empty()) return std::nullopt;
+    Vec3 x = norm2(start) > 0 ? normalized(start) : faces[0];
+    for (int step = 0; step < 200; ++step) {
+        size_t worst = 0;
+        for (size_t j = 1; j < faces.size(); ++j)
+            if (dot(x, faces[j]) < dot(x, faces[worst])) worst = j;
+        const double low = dot(x, faces[worst]);
+        if (low >= margin) return x;
+        // Rotate towards the worst triangle's normal, a little past where it
+        // would be met exactly.
+        const Vec3 moved = x + (margin - low + 0.05) * faces[worst];
+        if (!(norm2(moved) > 0)) return std::nullopt;
+        x = normalized(moved);
+    }
+    return std::nullopt;
+}
+
 std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const FeatureSize& sizing,
                                        const OffsetParams& params)
 {
@@ -95,9 +120,27 @@ std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const Feature
     // Node i's points, passed one by one to `emit`; the count pass and the
     // fill pass walk the same steps, so each node's points land in its own
     // slice of the output and the order does not depend on the threads.
+    // Wall nodes whose normal failed the inward check: a repaired direction.
+    std::vector<Vec3> direction(sizing.normals.begin(), sizing.normals.end());
+    std::vector<char> repaired(n, 0);
+    if (params.repair_normals && !sizing.inward_ok.empty() &&
+        std::count(sizing.inward_ok.begin(), sizing.inward_ok.end(), 0) > 0) {
+        const VertexTable fans = vertex_triangles(surface);
+        std::vector<char> wall(n, 1);
+        if (surface.triangle_patch.size() == surface.triangles.size())
+            for (size_t t = 0; t < surface.triangles.size(); ++t)
+                if (surface.triangle_patch[t] != 0)
+                    for (int32_t v : surface.triangles[t]) wall[v] = 0;
+        for (size_t i = 0; i < n; ++i)
+            if (!sizing.inward_ok[i] && wall[i])
+                if (const auto x = repaired_inward_direction(surface, fans, static_cast<int32_t>(i), sizing.normals[i]))
+                    direction[i] = *x, repaired[i] = 1;
+    }
     auto walk = [&](size_t i, auto&& emit) {
-        if (!sizing.inward_ok.empty() && !sizing.inward_ok[i]) return;
-        const double d = sizing.d[i], D = sizing.D[i];
+        if (!sizing.inward_ok.empty() && !sizing.inward_ok[i] && !repaired[i]) return;
+        // A repaired node's D is not measured (no ray along its normal): its
+        // layermaking points go to d / 2 at most, and it makes no fillers.
+        const double d = sizing.d[i], D = repaired[i] ? sizing.d[i] : sizing.D[i];
         if (!(d > 0) || !(D > 0)) return;
         const double filler_step = std::min(D, params.L_max) / params.M;
         const std::vector<double> own =
@@ -106,6 +149,7 @@ std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const Feature
         double dist = 0;
         for (int m = 1;; ++m) {
             const bool filler = m > static_cast<int>(fractions.size());
+            if (filler && repaired[i]) break;
             const double step = filler ? filler_step : fractions[m - 1] * d;
             dist += step;
             // For even M and d = D the last layermaking point is the
@@ -122,7 +166,7 @@ std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const Feature
     std::vector<OffsetPoint> points(first[n]);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& range) {
         for (size_t i = range.begin(); i != range.end(); ++i) {
-            const Vec3 inward = -normalized(sizing.normals[i]);
+            const Vec3 inward = -normalized(direction[i]);
             size_t k = first[i];
             walk(i, [&](int m, bool filler, double dist, double step) {
                 points[k++] = {surface.points[i] + dist * inward, static_cast<int32_t>(i), m, filler, dist, step};

@@ -3,10 +3,12 @@
 // points along the inward synthetic normal) and the interior-point filter of
 // section 4.
 
+#include "core/adjacency.h"
 #include "core/surface_mesh.h"
 #include "sizing/feature_size.h"
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 namespace scalemesh {
@@ -27,6 +29,9 @@ struct OffsetParams {
                           // 1 = uniform lambda_m = 1/M (the paper's default)
     FirstLayer first_layer = FirstLayer::paper;
     double K = 4.2;       // anisotropy of the first layer with FirstLayer::edge, > 0
+    bool repair_normals = false; // a wall node whose normal failed the inward check gets its layermaking
+                                 // points along a repaired direction (repaired_inward_direction), up to
+                                 // d / 2 and no fillers; off, it gets no points
     double L_max = 0;     // mm, > 0: filler spacing is min(D, L_max) / M
     double filter_fraction = 0.1; // interior-point filter radius, fraction of min(d_a, d_b) / M, >= 0
     double filler_filter_fraction = 0.8; // a filler point's radius is at least this fraction of its own spacing
@@ -53,6 +58,14 @@ std::vector<double> layer_fractions(double M, double growth);
 // to the same total as `lambda` (first is capped at lambda[0]; the ratio is
 // found by bisection). Returns lambda itself when first >= lambda[0].
 std::vector<double> edge_layer_fractions(const std::vector<double>& lambda, double first);
+
+// A direction x for node v, as an outward normal, with dot(x, f) >= margin
+// for every nonzero triangle normal f of its fan (so -x points into the
+// volume from every triangle at v), found from `start` by pushing away from
+// the worst triangle; nullopt when none is found (a fan folded so far that
+// no such direction exists, or one too narrow for the margin).
+std::optional<Vec3> repaired_inward_direction(const SurfaceMesh& surface, const VertexTable& fans, int32_t v,
+                                              const Vec3& start, double margin = 0.1);
 
 // Algorithm 4 for every surface node i: layermaking points at cumulative
 // distances sum_{k<=m} lambda_k d_i for m = 1..floor(M/2) (with

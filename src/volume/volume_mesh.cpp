@@ -188,6 +188,7 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
     offset.L_max = params.L_max;
     offset.filter_fraction = params.filter_fraction;
     offset.filler_filter_fraction = params.filler_filter_fraction;
+    offset.repair_normals = true;
     const std::vector<OffsetPoint> raw = offset_points(surface, sizing, offset);
     const std::vector<OffsetPoint> points = filter_interior_points(raw, sizing, offset);
     result.offset_points = static_cast<int64_t>(raw.size());

@@ -2,6 +2,7 @@
 // first layer that follows the surface's edge length
 // (edge_layer_fractions, offset_points with FirstLayer::edge).
 
+#include "core/adjacency.h"
 #include "core/surface_mesh.h"
 #include "sizing/feature_size.h"
 #include "volume/layer_account.h"
@@ -9,8 +10,11 @@
 
 #include <gtest/gtest.h>
 
+#include <iostream>
+
 #include <cmath>
 #include <numeric>
+#include <optional>
 #include <stdexcept>
 
 namespace scalemesh {
@@ -157,11 +161,11 @@ TEST(LayerAccount, OpeningNodesAndThinPlacesAreApart)
 
     const SurfaceMesh closed = tetrahedron();
     FeatureSize g = sizing_of(closed, 7.0);
-    g.inward_ok[2] = 0;
+    g.inward_ok[2] = 0; // Algorithm 4 then lays no point from node 2
     std::vector<OffsetPoint> kept;
     for (const OffsetPoint& p : raw)
         if (p.generator != 2) kept.push_back(p);
-    a = account_layers(closed, g, 7, 1.0, raw, kept, std::vector<InsertionFate>(kept.size(), InsertionFate::inserted),
+    a = account_layers(closed, g, 7, 1.0, kept, kept, std::vector<InsertionFate>(kept.size(), InsertionFate::inserted),
                        all_in_place(kept), 0.25);
     EXPECT_EQ(a.loss[2], LayerLoss::normal);
     EXPECT_EQ(a.eligible_full, 3);
@@ -219,6 +223,87 @@ TEST(EdgeFirstLayer, OffsetPointsFollowTheEdgeLength)
     EXPECT_EQ(checked, 8);
     for (const OffsetPoint& p : paper)
         if (p.layer == 1) { EXPECT_NEAR(p.dist, 1.0, 1e-12); }
+}
+
+} // namespace
+} // namespace scalemesh
+
+namespace scalemesh {
+namespace {
+
+// The repaired direction of a node whose normal failed the inward check:
+// when one is returned it clears every triangle of the fan by the margin;
+// when none is, none of 20,000 directions spread over the sphere does
+// either; a direction that already clears them is kept as it is.
+TEST(RepairedNormal, ClearsEveryTriangleOfTheFanOrNoDirectionDoes)
+{
+    {
+        // A closed cylinder (radius 2, 10 long, 32 around, 10 along) with
+        // its top cap's centre pulled out to radius 3 (folded), or left
+        // flat and started from a direction 87 degrees off its axis, or from
+        // the axis.
+        auto cylinder = [](double pull) {
+            SurfaceMesh m;
+            const int around = 32, along = 10;
+            for (int j = 0; j <= along; ++j)
+                for (int i = 0; i < around; ++i) {
+                    const double a = 2 * M_PI * i / around;
+                    m.points.push_back({2 * std::cos(a), 2 * std::sin(a), 10.0 * j / along});
+                }
+            const int32_t bottom = static_cast<int32_t>(m.points.size());
+            m.points.push_back({0, 0, 0});
+            const int32_t top = static_cast<int32_t>(m.points.size());
+            m.points.push_back({pull, 0.5 * pull / 3, 10.0});
+            for (int j = 0; j < along; ++j)
+                for (int i = 0; i < around; ++i) {
+                    const int32_t a = j * around + i, b = j * around + (i + 1) % around;
+                    m.triangles.push_back({a, b, b + around});
+                    m.triangles.push_back({a, b + around, a + around});
+                }
+            for (int i = 0; i < around; ++i) {
+                m.triangles.push_back({bottom, (i + 1) % around, i});
+                m.triangles.push_back({top, along * around + i, along * around + (i + 1) % around});
+            }
+            m.triangle_patch.assign(m.triangles.size(), 0);
+            return std::make_pair(m, top);
+        };
+        for (const auto& [pull, start] : {std::pair{3.0, Vec3{0, 0, 1}}, std::pair{0.0, normalized(Vec3{1, 0, 0.05})},
+                                          std::pair{0.0, Vec3{0, 0, 1}}}) {
+            const auto [m, top] = cylinder(pull);
+            const VertexTable fans = vertex_triangles(m);
+            std::vector<Vec3> faces;
+            for (const int32_t* f = fans.begin(top); f != fans.end(top); ++f) {
+                const Triangle& t = m.triangles[*f];
+                faces.push_back(normalized(cross(m.points[t[1]] - m.points[t[0]], m.points[t[2]] - m.points[t[0]])));
+            }
+            auto clearance = [&](const Vec3& x) {
+                double low = 1;
+                for (const Vec3& f : faces) low = std::min(low, dot(x, f));
+                return low;
+            };
+            const std::optional<Vec3> x = repaired_inward_direction(m, fans, top, start, 0.1);
+            if (x) {
+                EXPECT_GE(clearance(*x), 0.1) << "pull " << pull;
+                EXPECT_NEAR(norm(*x), 1.0, 1e-12);
+                if (clearance(start) >= 0.1) {
+                    EXPECT_EQ(*x, start); // already clear: kept
+                }
+            } else {
+                double best = -1;
+                const int count = 20000;
+                for (int k = 0; k < count; ++k) { // a Fibonacci sphere
+                    const double z = 1 - 2 * (k + 0.5) / count, r = std::sqrt(1 - z * z), a = k * 2.399963229728653;
+                    best = std::max(best, clearance({r * std::cos(a), r * std::sin(a), z}));
+                }
+                EXPECT_LT(best, 0.1) << "pull " << pull << ": a direction clears the fan by " << best;
+            }
+            std::cout << "[ pull " << pull << " ] " << (x ? "repaired, clearance " : "none; start's clearance ")
+                      << clearance(x ? *x : start) << "\n";
+            if (pull == 0.0) {
+                EXPECT_TRUE(x.has_value()); // a flat cap: its axis clears it
+            }
+        }
+    }
 }
 
 } // namespace
