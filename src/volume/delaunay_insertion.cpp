@@ -755,6 +755,7 @@ private:
         std::vector<Cell_handle>& cells = own.cells;
         own.boundary.clear();
         own.removed.clear();
+        bool start_tiny = false; // the holding cell goes for the volume floor alone
         for (const Cell_handle& cc : cells) {
             bool bad = false;
             for (int j = 0; j < 4; ++j) {
@@ -776,13 +777,16 @@ private:
                 // Above a positive limit the sign of v6 is beyond round-off;
                 // without one, the exact predicate decides.
                 bad = v6 < limit || (limit <= 0 && CGAL::orientation(*q[0], *q[1], *q[2], *q[3]) != CGAL::POSITIVE);
+                // Seen from the point but below the floor: a tiny tet, (i).
+                if (bad && cc == start && limit > 0 && CGAL::orientation(*q[0], *q[1], *q[2], *q[3]) == CGAL::POSITIVE)
+                    start_tiny = true;
             }
             if (bad) own.removed.push_back(cc);
         }
         if (own.removed.empty()) return false;
         for (const Cell_handle& cc : own.removed) {
             if (cc == start) {
-                verdict = Verdict::hidden;
+                verdict = start_tiny ? Verdict::small : Verdict::hidden;
                 return true;
             }
             cc->tds_data().clear();

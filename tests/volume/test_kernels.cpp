@@ -257,14 +257,11 @@ TEST(KernelInsertion, ALayerPointThatWouldMakeATetBelowTheFloorIsRefused)
     EXPECT_EQ(refused.inserted, 0);
     EXPECT_EQ(refused.points.size(), 4u);
     EXPECT_EQ(refused.tets.size(), 1u);
-    // Refused by the cavity conditions, not as outside or as a filler. The
-    // code reports this refusal as `hidden` (rejected_surface) although
-    // layer_account.h documents it as `tiny_tet` (rejected_small): the
-    // insertion never returns its `small` verdict. Both are accepted here so
-    // that the test checks the paper's fact, the refusal.
-    EXPECT_TRUE(refused.fates[0] == InsertionFate::tiny_tet || refused.fates[0] == InsertionFate::hidden);
-    EXPECT_EQ(refused.rejected_small + refused.rejected_surface, 1);
-    EXPECT_EQ(refused.rejected_filler + refused.rejected_other, 0);
+    // Refused for the tiny tet (Algorithm 5 (i)), not as hidden, outside or
+    // a filler.
+    EXPECT_EQ(refused.fates[0], InsertionFate::tiny_tet);
+    EXPECT_EQ(refused.rejected_small, 1);
+    EXPECT_EQ(refused.rejected_surface + refused.rejected_filler + refused.rejected_other, 0);
 
     // Without the floor the same point goes in: the floor refused it.
     const InsertionResult no_floor = insert_and_classify(s, points, floor_params(0, 0));
