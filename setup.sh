@@ -19,7 +19,7 @@ packages=(
   libtinyobjloader-dev libexpat1-dev libpng-dev
   googletest libgtest-dev libbenchmark-dev
   clang libclang-rt-14-dev
-  openfoam
+  openfoam python3
 )
 missing=()
 for p in "${packages[@]}"; do
@@ -75,8 +75,21 @@ case "${1:-run}" in
     "$build/bench/bench_pipeline" --json bench-pipeline.json --plot docs/performance.png \
       --doc docs/performance.md --notes bench/performance-notes.md
     ;;
+  validate)
+    # Issue 31: CFD validation on the straight tube, scalemesh at several M
+    # against an isotropic Gmsh tet mesh at matched cell counts (simpleFoam,
+    # wallShearStress, Hagen-Poiseuille); regenerates docs/validation.md and
+    # validation/results.json, results.csv, tube.png (about 15 minutes).
+    for p in python3-gmsh gnuplot-nox; do
+      dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || {
+        apt-get update -qq
+        DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "$p" >/dev/null
+      }
+    done
+    /usr/bin/python3 validation/tube_validation.py --scalemesh "$build/src/cli/scalemesh"
+    ;;
   *)
-    echo "usage: bash setup.sh [run|test|bench]" >&2
+    echo "usage: bash setup.sh [run|test|bench|validate]" >&2
     exit 2
     ;;
 esac
