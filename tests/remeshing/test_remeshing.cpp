@@ -13,6 +13,7 @@
 #include "remeshing/volume_give_back.h"
 #include "sizing/feature_size.h"
 #include "smoothing/volume_conserving_smoothing.h"
+#include "support/triangle_angles.h"
 
 #include <CGAL/AABB_traits.h>
 #include <CGAL/AABB_tree.h>
@@ -71,17 +72,6 @@ double one_sided_distance(const SurfaceMesh& from, const SurfaceMesh& to)
 double hausdorff(const SurfaceMesh& a, const SurfaceMesh& b)
 {
     return std::max(one_sided_distance(a, b), one_sided_distance(b, a));
-}
-
-double min_angle_degrees(const SurfaceMesh& mesh, const Triangle& t)
-{
-    double smallest = 180;
-    for (int k = 0; k < 3; ++k) {
-        const Vec3 u = mesh.points[t[(k + 1) % 3]] - mesh.points[t[k]];
-        const Vec3 v = mesh.points[t[(k + 2) % 3]] - mesh.points[t[k]];
-        smallest = std::min(smallest, std::atan2(norm(cross(u, v)), dot(u, v)) * 180 / std::numbers::pi);
-    }
-    return smallest;
 }
 
 struct Figures {
