@@ -147,7 +147,7 @@ void ProgressDisplay::summary(const CaseConfig& config, const CaseResult& result
         if (result.polymesh) std::fprintf(o, "; OpenFOAM: %lld cells", static_cast<long long>(result.polymesh->cells));
         std::fprintf(o, "\n");
         const LayerAccount& a = v.layers;
-        std::fprintf(o, "  layers    %lld of %lld wall nodes with D >= L_min keep all %d layers (%.1f%%), %.2f on average",
+        std::fprintf(o, "  layers    %lld of %lld wall nodes with D >= L_min keep all %d layers (%.2f%%), %.2f on average",
                      static_cast<long long>(a.eligible_full), static_cast<long long>(a.eligible_nodes), a.layermaking,
                      100 * a.coverage(), a.eligible_mean);
         if (a.opening_nodes)
