@@ -45,8 +45,9 @@ private:
 };
 
 // A flip replaces old tets by new ones on the same polyhedron; the criterion
-// decides from their volumes or aspect ratios whether it is worth it.
-enum class Criterion { volume, quality };
+// decides from their volumes, aspect ratios or face non-orthogonality
+// whether it is worth it.
+enum class Criterion { volume, quality, orthogonality };
 
 // The tets as a mutable set with vertex-to-tet lists (dead entries are
 // skipped and dropped lazily), enough for local flips and point moves.
@@ -206,9 +207,112 @@ double longest_edge2(const TetEditor& ed, const Tets& tets)
     return l2;
 }
 
+Vec3 centroid(const TetEditor& ed, const Tet& t)
+{
+    return 0.25 * (ed.point(t[0]) + ed.point(t[1]) + ed.point(t[2]) + ed.point(t[3]));
+}
+
+// An interior face of tets[i] (the face opposite its corner k) and the tet
+// across it: tets[inside] when inside >= 0, else the living tet `outside`.
+struct FaceLink {
+    int i, k, inside;
+    int32_t outside;
+};
+
+// The interior faces of `tets`, as if the tets with the ids `old` were
+// replaced by them: a face's other tet is one of `tets` or a living tet not
+// in `old`; a face with none (the boundary) is left out, as OpenFOAM checks
+// internal faces only.
+template <class Tets, class Old>
+std::vector<FaceLink> face_links(TetEditor& ed, const Tets& tets, const Old& old)
+{
+    const auto has_face = [](const Tet& t, int32_t a, int32_t b, int32_t c) {
+        return TetEditor::contains(t, a) && TetEditor::contains(t, b) && TetEditor::contains(t, c);
+    };
+    std::vector<FaceLink> links;
+    for (size_t i = 0; i < tets.size(); ++i) {
+        const Tet& t = tets[i];
+        for (int k = 0; k < 4; ++k) {
+            const int32_t a = t[(k + 1) % 4], b = t[(k + 2) % 4], d = t[(k + 3) % 4];
+            FaceLink link{static_cast<int>(i), k, -1, -1};
+            for (size_t j = 0; j < tets.size() && link.inside < 0; ++j)
+                if (j != i && has_face(tets[j], a, b, d)) link.inside = static_cast<int>(j);
+            if (link.inside < 0)
+                for (int32_t u : ed.at(a))
+                    if (has_face(ed.tet(u), a, b, d) && std::find(old.begin(), old.end(), u) == old.end()) {
+                        link.outside = u;
+                        break;
+                    }
+            if (link.inside >= 0 || link.outside >= 0) links.push_back(link);
+        }
+    }
+    return links;
+}
+
+// The smallest cosine of OpenFOAM's face non-orthogonality (the angle
+// between an interior face's normal and the join of its two tets'
+// centroids, the cell centres of a tet) over the faces `links` of `tets`,
+// with the points where they are now. -1 when a join or a face is degenerate.
+template <class Tets>
+double worst_cosine(const TetEditor& ed, const Tets& tets, const std::vector<FaceLink>& links)
+{
+    double worst = 1;
+    for (const FaceLink& link : links) {
+        const Tet& t = tets[link.i];
+        const int k = link.k;
+        const int32_t a = t[(k + 1) % 4], b = t[(k + 2) % 4], d = t[(k + 3) % 4];
+        const Vec3 other = centroid(ed, link.inside >= 0 ? tets[link.inside] : ed.tet(link.outside));
+        Vec3 normal = cross(ed.point(b) - ed.point(a), ed.point(d) - ed.point(a));
+        if (dot(normal, ed.point(t[k]) - ed.point(a)) > 0) normal = -normal; // out of t
+        const Vec3 join = other - centroid(ed, t);
+        const double scale = norm(normal) * norm(join);
+        if (!(scale > 0)) return -1;
+        worst = std::min(worst, dot(normal, join) / scale);
+    }
+    return worst;
+}
+
+// What a change for face non-orthogonality must keep: the smallest aspect
+// ratio and dihedral angle of the tets it makes not below the floors (or
+// below the old tets' own, where those already are).
+struct OrthoFloors {
+    double aspect = 0.1;   // dimensionless
+    double dihedral = 10;  // degrees
+};
+
+struct Shape {
+    double cosine = 1, aspect = 1e300, dihedral = 1e300;
+};
+
+template <class Tets>
+Shape shape_of(const TetEditor& ed, const Tets& tets, const std::vector<FaceLink>& links)
+{
+    Shape s;
+    for (size_t i = 0; i < tets.size(); ++i) {
+        const Tet& t = tets[i];
+        s.aspect = std::min(s.aspect, ed.aspect(t));
+        s.dihedral = std::min(s.dihedral, tet_min_dihedral_deg(ed.point(t[0]), ed.point(t[1]), ed.point(t[2]),
+                                                               ed.point(t[3])));
+    }
+    if (!(s.aspect > 0)) return s;
+    s.cosine = worst_cosine(ed, tets, links);
+    return s;
+}
+
+// Whether `after` is better for orthogonality than `before` and keeps the floors.
+bool ortho_better(const Shape& before, const Shape& after, const OrthoFloors& floors)
+{
+    return after.aspect > 0 && after.cosine > before.cosine + 1e-9 &&
+           after.aspect >= std::min(before.aspect, floors.aspect) &&
+           after.dihedral >= std::min(before.dihedral, floors.dihedral);
+}
+
 class Flipper {
 public:
-    Flipper(TetEditor& ed, Criterion criterion) : ed_(ed), criterion_(criterion) {}
+    Flipper(TetEditor& ed, Criterion criterion, OrthoFloors floors = {})
+        : ed_(ed), criterion_(criterion), floors_(floors)
+    {
+    }
 
     // Tries the flips of the edges and faces of tet t; true when one was made.
     bool improve_tet(int32_t t, FlipCounts& counts)
@@ -243,6 +347,9 @@ private:
             for (const Tet& t : old_tets) old_min = std::min(old_min, ed_.volume6(t));
             return new_min > 3.0 * old_min;
         }
+        if (criterion_ == Criterion::orthogonality)
+            return ortho_better(shape_of(ed_, old_tets, face_links(ed_, old_tets, old)),
+                                shape_of(ed_, fresh, face_links(ed_, fresh, old)), floors_);
         double old_q = 1e300, new_q = 1e300;
         for (const Tet& t : old_tets) old_q = std::min(old_q, ed_.aspect(t));
         for (const Tet& t : fresh) new_q = std::min(new_q, ed_.aspect(t));
@@ -334,6 +441,7 @@ private:
 
     TetEditor& ed_;
     Criterion criterion_;
+    OrthoFloors floors_;
 };
 
 // Smallest aspect ratio over the tets at v (not above 0 when one is flat or
@@ -1102,6 +1210,128 @@ int64_t split_surface_slivers(TetMesh& mesh, int32_t surface_points, double thre
     }
     ed.commit();
     return splits;
+}
+
+namespace {
+
+// Moves interior point v to lower the worst face non-orthogonality of the
+// faces of its star: a line search along the gradient of that worst
+// cosine, and toward the star's centroid, a layer point within its ball.
+// Accepted on ortho_better.
+bool orthogonalize_point(TetEditor& ed, int32_t v, const LayerBound& layer, const OrthoFloors& floors)
+{
+    const std::vector<int32_t> star = ed.at(v);
+    std::vector<Tet> tets;
+    for (int32_t t : star) tets.push_back(ed.tet(t));
+    const Vec3 origin = ed.point(v);
+    const std::vector<FaceLink> links = face_links(ed, tets, star); // a move keeps them
+    const auto shape_at = [&](const Vec3& x) {
+        ed.point(v) = x;
+        return shape_of(ed, tets, links);
+    };
+    const Shape start = shape_at(origin);
+    double mean_length = 0;
+    int edges = 0;
+    Vec3 centroid;
+    for (const Tet& t : tets)
+        for (int32_t w : t)
+            if (w != v) mean_length += distance(origin, ed.point(w)), centroid += ed.point(w), ++edges;
+    if (edges == 0) return false;
+    mean_length /= edges;
+    centroid /= edges;
+
+    const double h = 1e-4 * mean_length;
+    Vec3 gradient;
+    for (int axis = 0; axis < 3; ++axis) {
+        Vec3 plus = origin, minus = origin;
+        plus[axis] += h;
+        minus[axis] -= h;
+        ed.point(v) = plus;
+        const double up = worst_cosine(ed, tets, links);
+        ed.point(v) = minus;
+        gradient[axis] = (up - worst_cosine(ed, tets, links)) / (2 * h);
+    }
+    const auto in_ball = [&](const Vec3& x) {
+        if (!(layer.slack > 0)) return x;
+        const Vec3 away = x - layer.home;
+        const double length = norm(away);
+        return length <= layer.slack ? x : layer.home + (layer.slack / length) * away;
+    };
+    std::vector<Vec3> candidates;
+    const Vec3 direction = normalized(gradient);
+    if (norm2(direction) > 0)
+        for (double step : {0.2, 0.1, 0.05, 0.025, 0.0125, 0.006, 0.003})
+            candidates.push_back(in_ball(origin + step * mean_length * direction));
+    for (double w : {1.0, 0.5, 0.25}) candidates.push_back(in_ball(origin + w * (centroid - origin)));
+
+    Shape best = start;
+    Vec3 best_position = origin;
+    for (const Vec3& x : candidates) {
+        const Shape s = shape_at(x);
+        if (ortho_better(best, s, floors) && ortho_better(start, s, floors)) best = s, best_position = x;
+    }
+    ed.point(v) = best_position;
+    return !(best_position == origin);
+}
+
+} // namespace
+
+OrthoCounts improve_orthogonality(TetMesh& mesh, int32_t surface_points, double max_angle_deg, int sweeps,
+                                  const std::vector<LayerBound>& layers)
+{
+    OrthoCounts counts;
+    const double bound = std::cos(max_angle_deg * M_PI / 180);
+    TetEditor ed(mesh);
+    const OrthoFloors floors;
+    Flipper flipper(ed, Criterion::orthogonality, floors);
+    FlipCounts flips;
+    // A layer point already outside its ball (sliver removal freed it where
+    // the mesh was poor) stays where it is.
+    std::vector<char> pinned(ed.point_count(), 0);
+    for (size_t v = 0; v < pinned.size(); ++v) {
+        const bool layer = v < layers.size() && layers[v].slack > 0;
+        pinned[v] = int32_t(v) < surface_points ||
+                    (layer && distance(ed.point(int32_t(v)), layers[v].home) > layers[v].slack);
+    }
+    const auto face_cosine = [&](int32_t t, int32_t u) {
+        const Few<Tet, 2> two{ed.tet(t), ed.tet(u)};
+        int k = 0;
+        while (TetEditor::contains(two[1], two[0][k])) ++k; // t's corner off the face
+        return worst_cosine(ed, two, {FaceLink{0, k, 1, -1}});
+    };
+    for (int sweep = 0; sweep < sweeps; ++sweep) {
+        // The interior faces beyond the bound, as pairs of tets in tet order.
+        std::vector<std::pair<int32_t, int32_t>> bad;
+        for (size_t i = 0; i < ed.size(); ++i) {
+            const auto t = static_cast<int32_t>(i);
+            if (!ed.alive(t)) continue;
+            const Tet tet = ed.tet(t);
+            for (int k = 0; k < 4; ++k) {
+                Few<int32_t, 2> two;
+                if (!ed.tets_at(two, tet[(k + 1) % 4], tet[(k + 2) % 4], tet[(k + 3) % 4]) || two.size() != 2) continue;
+                const int32_t u = two[0] == t ? two[1] : two[0];
+                if (u > t && face_cosine(t, u) < bound) bad.push_back({t, u});
+            }
+        }
+        if (sweep == 0) counts.faces_before = static_cast<int64_t>(bad.size());
+        int64_t changed = 0;
+        for (const auto& [t, u] : bad) {
+            if (!ed.alive(t) || !ed.alive(u) || !(face_cosine(t, u) < bound)) continue;
+            if (flipper.improve_tet(t, flips) || flipper.improve_tet(u, flips)) {
+                ++changed;
+                continue;
+            }
+            const Tet first = ed.tet(t), second = ed.tet(u);
+            for (const Tet& tet : {first, second})
+                for (int32_t v : tet)
+                    if (!pinned[v] && orthogonalize_point(ed, v, size_t(v) < layers.size() ? layers[v] : LayerBound{}, floors))
+                        ++counts.moves, ++changed;
+        }
+        if (changed == 0) break;
+    }
+    counts.flips = flips.flips_23 + flips.flips_32 + flips.flips_44;
+    ed.commit();
+    return counts;
 }
 
 } // namespace scalemesh

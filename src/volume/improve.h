@@ -117,4 +117,22 @@ SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double thresh
 int64_t split_surface_slivers(TetMesh& mesh, int32_t surface_points, double threshold, double at_least,
                               bool surface_points_only = true);
 
+struct OrthoCounts {
+    int64_t faces_before = 0; // interior faces beyond the bound at the start
+    int64_t flips = 0, moves = 0;
+};
+
+// Face non-orthogonality as OpenFOAM measures it (the angle between an
+// interior face's normal and the join of its two tets' centroids): for at
+// most `sweeps` rounds, each interior face beyond `max_angle_deg` gets a
+// flip (2-3, 3-2, 4-4) at one of its two tets, else moves of their interior
+// points, each accepted when it lowers the worst non-orthogonality of the
+// faces it changes and leaves no new tet below aspect ratio 0.1 or a
+// dihedral angle of 10 degrees (or the old tets' own, if lower). Surface
+// points never move; a layer point stays within layers[v].slack of
+// layers[v].home (one already outside stays put). Serial over the whole
+// mesh: the same result on any number of threads.
+OrthoCounts improve_orthogonality(TetMesh& mesh, int32_t surface_points, double max_angle_deg, int sweeps,
+                                  const std::vector<LayerBound>& layers = {});
+
 } // namespace scalemesh

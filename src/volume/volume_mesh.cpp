@@ -346,6 +346,10 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
             const SliverCounts more = remove_slivers(mesh, n, params.sliver_aspect_ratio, params.sliver_sweeps, layers);
             result.sliver_flips += more.flips, result.sliver_moves += more.moves;
         }
+        // OpenFOAM's solvers want face non-orthogonality below 70 degrees:
+        // flips and moves for the faces beyond 65, keeping the quality floors
+        // and the layers' balls (issue 27).
+        improve_orthogonality(mesh, n, 65.0, 12, layers);
         attribute_new_points(result, n);
         result.seconds_slivers = seconds_since(t0);
         t0 = Clock::now();
