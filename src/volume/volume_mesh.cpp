@@ -348,8 +348,10 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
         }
         // OpenFOAM's solvers want face non-orthogonality below 70 degrees:
         // flips and moves for the faces beyond 65, keeping the quality floors
-        // and the layers' balls (issue 27).
-        improve_orthogonality(mesh, n, 65.0, 12, layers);
+        // and the layers' balls.
+        const OrthoCounts ortho = improve_orthogonality(mesh, n, 65.0, 12, layers);
+        result.ortho_faces_before = ortho.faces_before;
+        result.ortho_flips = ortho.flips, result.ortho_moves = ortho.moves;
         attribute_new_points(result, n);
         result.seconds_slivers = seconds_since(t0);
         t0 = Clock::now();

@@ -110,6 +110,12 @@ TEST_P(SampleCase, RunsAndMeetsItsExpectedBounds)
         if (const toml::array* names = expected["openings"]["names"].as_array())
             for (const auto& n : *names) expected_names.push_back(*n.value<std::string>());
         EXPECT_EQ(patch_names, expected_names);
+        // OpenFOAM's face non-orthogonality, where the case bounds it.
+        if (const auto bound = expected["volume"]["max_non_orthogonality_deg"].value<double>()) {
+            std::smatch ortho;
+            ASSERT_TRUE(std::regex_search(text, ortho, std::regex(R"(non-orthogonality Max: ([0-9.eE+-]+))"))) << text;
+            EXPECT_LT(std::stod(ortho[1]), *bound) << "checkMesh's worst face non-orthogonality";
+        }
         // checkMesh works in metres, the report in mm.
         EXPECT_NEAR(std::stod(volume[1]) * 1e9, report["volume"]["volume_mm3"].get<double>(),
                     1e-6 * report["volume"]["volume_mm3"].get<double>());
@@ -137,6 +143,8 @@ TEST_P(SampleCase, RunsAndMeetsItsExpectedBounds)
                 EXPECT_GE(layers["coverage"].get<double>(), *value.value<double>()) << layers.dump();
                 EXPECT_EQ(layers["coverage"].get<double>(),
                           layers["eligible_with_all_layers"].get<double>() / layers["eligible_wall_nodes"].get<double>());
+            } else if (k == "max_non_orthogonality_deg") {
+                ASSERT_TRUE(report.contains("openfoam")) << "bounded with checkMesh, which needs the OpenFOAM case";
             } else if (k == "anisotropy_median") {
                 const auto [lo, hi] = bounds(value);
                 const double a = v["first_layer_anisotropy_median"].get<double>();
