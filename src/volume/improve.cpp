@@ -457,6 +457,36 @@ double star_quality(TetEditor& ed, int32_t v)
     return q;
 }
 
+// x, or for a layer point (slack > 0) the nearest place within its slack of
+// its home: on its layer and on its node's normal.
+Vec3 within_layer(const LayerBound& layer, const Vec3& x)
+{
+    if (!(layer.slack > 0)) return x;
+    const Vec3 away = x - layer.home;
+    const double length = norm(away);
+    return length <= layer.slack ? x : layer.home + (layer.slack / length) * away;
+}
+
+// The central-difference gradient, step h, of `measure` (of the mesh as it
+// is) in the position of point v; v is put back where it was.
+template <class Measure>
+Vec3 point_gradient(TetEditor& ed, int32_t v, double h, Measure&& measure)
+{
+    const Vec3 origin = ed.point(v);
+    Vec3 gradient;
+    for (int axis = 0; axis < 3; ++axis) {
+        Vec3 plus = origin, minus = origin;
+        plus[axis] += h;
+        minus[axis] -= h;
+        ed.point(v) = plus;
+        const double up = measure();
+        ed.point(v) = minus;
+        gradient[axis] = (up - measure()) / (2 * h);
+    }
+    ed.point(v) = origin;
+    return gradient;
+}
+
 // Moves interior point v to raise the smallest aspect ratio of its star. A
 // star holding a nearly flat tet (aspect ratio 1e-11 in a flat slab, where
 // the layer points of two wall nodes and the nodes lie in one plane) is the
@@ -480,28 +510,9 @@ bool smooth_point(TetEditor& ed, int32_t v, const LayerBound& layer = {})
     mean_length /= edges;
 
     // Central differences of the worst tet's aspect ratio.
-    const double h = 1e-4 * mean_length;
-    Vec3 gradient;
-    for (int axis = 0; axis < 3; ++axis) {
-        Vec3 plus = origin, minus = origin;
-        plus[axis] += h;
-        minus[axis] -= h;
-        ed.point(v) = plus;
-        const double qp = ed.aspect(ed.tet(worst));
-        ed.point(v) = minus;
-        const double qm = ed.aspect(ed.tet(worst));
-        gradient[axis] = (qp - qm) / (2 * h);
-    }
-    ed.point(v) = origin;
-
-    // A layer point stays within its slack of its place: on its layer and
-    // on its node's normal.
-    auto in_plane = [&](const Vec3& x) {
-        if (!(layer.slack > 0)) return x;
-        const Vec3 away = x - layer.home;
-        const double length = norm(away);
-        return length <= layer.slack ? x : layer.home + (layer.slack / length) * away;
-    };
+    const Vec3 gradient = point_gradient(ed, v, 1e-4 * mean_length, [&] { return ed.aspect(ed.tet(worst)); });
+    // A layer point stays within its slack of its place.
+    auto in_plane = [&](const Vec3& x) { return within_layer(layer, x); };
     Few<Vec3, 8> candidates;
     const Vec3 direction = normalized(gradient);
     if (norm2(direction) > 0)
@@ -1240,23 +1251,8 @@ bool orthogonalize_point(TetEditor& ed, int32_t v, const LayerBound& layer, cons
     mean_length /= edges;
     centroid /= edges;
 
-    const double h = 1e-4 * mean_length;
-    Vec3 gradient;
-    for (int axis = 0; axis < 3; ++axis) {
-        Vec3 plus = origin, minus = origin;
-        plus[axis] += h;
-        minus[axis] -= h;
-        ed.point(v) = plus;
-        const double up = worst_cosine(ed, tets, links);
-        ed.point(v) = minus;
-        gradient[axis] = (up - worst_cosine(ed, tets, links)) / (2 * h);
-    }
-    const auto in_ball = [&](const Vec3& x) {
-        if (!(layer.slack > 0)) return x;
-        const Vec3 away = x - layer.home;
-        const double length = norm(away);
-        return length <= layer.slack ? x : layer.home + (layer.slack / length) * away;
-    };
+    const Vec3 gradient = point_gradient(ed, v, 1e-4 * mean_length, [&] { return worst_cosine(ed, tets, links); });
+    const auto in_ball = [&](const Vec3& x) { return within_layer(layer, x); };
     std::vector<Vec3> candidates;
     const Vec3 direction = normalized(gradient);
     if (norm2(direction) > 0)
