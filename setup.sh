@@ -12,7 +12,7 @@ set -euo pipefail
 cd "$(dirname "$0")"
 
 packages=(
-  cmake ninja-build g++ pkg-config
+  cmake ninja-build g++ pkg-config dpkg-dev
   libopenvdb-dev libboost-iostreams-dev libembree-dev libcgal-dev libgmsh-dev libtbb-dev
   libboost-dev libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
   libinsighttoolkit5-dev libgdcm-tools zlib1g-dev
@@ -20,6 +20,8 @@ packages=(
   googletest libgtest-dev libbenchmark-dev
   clang libclang-rt-14-dev
   openfoam python3
+  pybind11-dev python3-dev python3-gmsh python3-numpy
+  gmsh
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -34,6 +34,25 @@ public:
         if (!out.flush()) throw IoError(path.string(), "cannot write the file");
     }
 
+    // A script, executable by everyone who may read it.
+    void add_script(const std::string& relative, const std::string& text)
+    {
+        const std::filesystem::path path = dir_ / relative;
+        outputs_.push_back(std::make_unique<AtomicOutput>(path));
+        {
+            std::ofstream out(outputs_.back()->temporary());
+            out << text;
+            if (!out.flush()) throw IoError(path.string(), "cannot write the file");
+        }
+        using std::filesystem::perms;
+        std::error_code ec;
+        std::filesystem::permissions(outputs_.back()->temporary(),
+                                     perms::owner_all | perms::group_read | perms::group_exec | perms::others_read |
+                                         perms::others_exec,
+                                     ec);
+        if (ec) throw IoError(path.string(), "cannot make the script executable: " + ec.message());
+    }
+
     void commit(StagedOutputs* staged)
     {
         if (!staged) return commit_all(outputs_);
@@ -44,6 +63,39 @@ private:
     std::filesystem::path dir_;
     std::vector<std::unique_ptr<AtomicOutput>> outputs_;
 };
+
+// Plain bash for Debian's OpenFOAM (tools on PATH, no RunFunctions): each
+// tool's output in log.<tool>, a non-zero exit naming the log when one
+// fails. checkMesh exits 0 even when a check fails, so its log is read.
+std::string allrun_script(bool flow)
+{
+    std::string text = R"SH(#!/bin/bash
+# Written by scalemesh: checks the mesh)SH" + std::string(flow ? " and runs the steady laminar flow (simpleFoam)" : "") +
+                       R"SH( with
+# OpenFOAM (Debian package openfoam), each tool's output in log.<tool>.
+# Exits non-zero, naming the log, when a tool fails.
+cd "$(dirname "$0")" || exit 1
+export WM_PROJECT_DIR="${WM_PROJECT_DIR:-/usr/share/openfoam}"
+
+fail() {
+    echo "Allrun: $1" >&2
+    [ -f "$2" ] && tail -n 20 "$2" >&2
+    exit 1
+}
+
+run() {
+    command -v "$1" >/dev/null 2>&1 ||
+        fail "$1 not found: install the Debian package openfoam, or source OpenFOAM's etc/bashrc"
+    echo "Running $1 on $PWD"
+    "$1" -case . > "log.$1" 2>&1 || fail "$1 failed (exit code $?); see $PWD/log.$1" "log.$1"
+}
+
+run checkMesh
+grep -q "^Mesh OK\." log.checkMesh || fail "checkMesh found a failed mesh check; see $PWD/log.checkMesh" log.checkMesh
+)SH";
+    if (flow) text += "run simpleFoam\n";
+    return text;
+}
 
 } // namespace
 
@@ -139,6 +191,8 @@ bool write_openfoam_case(const std::filesystem::path& case_dir, const std::vecto
         files.add("0/U", U.str());
         files.add("0/p", p.str());
     }
+    
+    files.add_script("Allrun", allrun_script(flow));
     files.commit(settings.staged);
     return flow;
 }

@@ -26,7 +26,10 @@ struct FlowSettings {
 // outlet, 0/U and 0/p: no-slip walls, a fixed normal inflow at each inlet,
 // zero pressure at each outlet. A case without openings gets the system/ and
 // constant/ files (so checkMesh and paraFoam work) and no 0/ fields, since
-// no flow problem is posed. Patch names and roles are those of the polyMesh
+// no flow problem is posed. Beside them an executable `Allrun` (plain bash,
+// for Debian's OpenFOAM): checkMesh, then simpleFoam when the flow fields are
+// written, each into log.<tool>, exiting non-zero when a tool fails or
+// checkMesh finds a failed check. Patch names and roles are those of the polyMesh
 // boundary file, in its order. Every file is written atomically. Throws
 // InputError for a non-positive viscosity or speed, IoError on write failure.
 // Returns whether the flow fields (0/) were written.

@@ -8,6 +8,7 @@
 #include "importers/stl_importer.h"
 #include "importers/surface_files.h"
 #include "importers/vdb_importer.h"
+#include "importers/vtk_xml_writer.h"
 #include "phantom/phantom.h"
 
 #include <openvdb/io/File.h>
@@ -285,6 +286,44 @@ void surface_seeds(SeedWriter& seeds)
     }
 }
 
+// VTK XML: .vtp surfaces with face labels and .vti images, in every
+// encoding (tests/importers/vtk_xml_writer.h); small blocks, so that the
+// compressed ones have several.
+void vtk_xml_seeds(SeedWriter& seeds)
+{
+    const PolyMesh cube = test::quad_cube(), sphere = test::icosphere(1);
+    std::vector<int32_t> sphere_labels(sphere.faces.size());
+    for (size_t i = 0; i < sphere_labels.size(); ++i) sphere_labels[i] = static_cast<int32_t>(i % 4) + 1;
+    test::vtk::Volume<uint8_t> labels;
+    labels.size = {6, 5, 4};
+    labels.spacing = {1.5, 1.5, 2};
+    labels.direction = {0, -1, 0, 1, 0, 0, 0, 0, 1};
+    for (char v : tiny_labels()) labels.values.push_back(static_cast<uint8_t>(v));
+    test::vtk::Volume<int16_t> intensity;
+    intensity.size = labels.size;
+    intensity.origin = {-3, 2, 10};
+    intensity.spacing = {0.5, 0.5, 1};
+    test::vtk::Volume<float> level_set;
+    level_set.size = labels.size;
+    for (uint8_t v : labels.values) {
+        intensity.values.push_back(static_cast<int16_t>(v * 400 - 100));
+        level_set.values.push_back(v ? -1.0f : 1.0f);
+    }
+    for (test::vtk::Options o : test::vtk::all_options()) {
+        o.block_size = 64;
+        const std::string n = test::vtk::name(o);
+        seeds.write("vtp", "cube_labels_" + n + ".vtp", test::vtk::vtp(cube, o, {1, 2, 3, 4, 5, 6}));
+        seeds.write("vti", "labels_" + n + ".vti", test::vtk::vti(labels, o));
+    }
+    for (const test::vtk::Options& o : {test::vtk::Options{test::vtk::Encoding::AppendedRaw, true},
+                                        test::vtk::Options{test::vtk::Encoding::AppendedBase64, true, true}}) {
+        seeds.write("vtp", "icosphere_labels_" + test::vtk::name(o) + ".vtp",
+                    test::vtk::vtp(sphere, o, sphere_labels, "CellEntityIds"));
+        seeds.write("vti", "intensity_" + test::vtk::name(o) + ".vti", test::vtk::vti(intensity, o, "CT"));
+        seeds.write("vti", "level_set_" + test::vtk::name(o) + ".vti", test::vtk::vti(level_set, o, "distance"));
+    }
+}
+
 void case_seeds(SeedWriter& seeds)
 {
     for (const auto& entry : fs::directory_iterator(seeds.root() / "cases"))
@@ -310,6 +349,7 @@ int main(int argc, char** argv)
         nrrd_seeds(seeds);
         metaimage_seeds(seeds);
         surface_seeds(seeds);
+        vtk_xml_seeds(seeds);
         case_seeds(seeds);
     } catch (const std::exception& e) {
         std::cerr << "fuzz_seeds: " << e.what() << '\n';

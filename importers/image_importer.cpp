@@ -1,6 +1,7 @@
 #include "importers/image_importer.h"
 
 #include "core/errors.h"
+#include "importers/vti_importer.h"
 
 #include <itkImageIOBase.h>
 #include <itkMetaImageIO.h>
@@ -37,7 +38,7 @@ using Leaf = openvdb::FloatTree::LeafNodeType;
 constexpr int64_t kLeafDim = Leaf::DIM; // 8
 constexpr int64_t kMaxVoxels = int64_t{1} << 31;
 
-enum class Format { Nifti, Nrrd, MetaImage };
+enum class Format { Nifti, Nrrd, MetaImage, Vti };
 
 struct Extension {
     const char* suffix;
@@ -46,8 +47,9 @@ struct Extension {
 // Longest suffix first, so that ".nii.gz" is not taken for ".gz".
 constexpr Extension kExtensions[] = {{".nii.gz", Format::Nifti}, {".nii", Format::Nifti},
                                      {".nrrd", Format::Nrrd},    {".nhdr", Format::Nrrd},
-                                     {".mha", Format::MetaImage}, {".mhd", Format::MetaImage}};
-constexpr const char* kSupported = ".nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd";
+                                     {".mha", Format::MetaImage}, {".mhd", Format::MetaImage},
+                                     {".vti", Format::Vti}};
+constexpr const char* kSupported = ".nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd, .vti";
 
 const char* format_name(Format f)
 {
@@ -55,6 +57,7 @@ const char* format_name(Format f)
     case Format::Nifti: return "NIfTI";
     case Format::Nrrd: return "NRRD";
     case Format::MetaImage: return "MetaImage";
+    case Format::Vti: return "VTK ImageData";
     }
     return "image";
 }
@@ -404,8 +407,9 @@ void check_metaimage(const std::filesystem::path& path)
     }
 }
 
-// What ITK read: geometry in double precision and the raw voxel buffer in the
-// file's component type (x fastest, then y, then z).
+// What a reader read (ITK, or the .vti reader): geometry in double precision
+// and the raw voxel buffer in the file's component type (x fastest, then y,
+// then z).
 struct RawImage {
     std::array<int64_t, 3> size{};
     std::array<double, 3> spacing{};
@@ -431,6 +435,7 @@ itk::ImageIOBase::Pointer make_io(Format format)
     }
     case Format::Nrrd: return itk::NrrdImageIO::New().GetPointer();
     case Format::MetaImage: return itk::MetaImageIO::New().GetPointer();
+    case Format::Vti: break; // read without ITK (vti_importer.h)
     }
     return nullptr;
 }
@@ -854,6 +859,45 @@ openvdb::FloatGrid::Ptr dispatch(const RawImage& image, const ImageImportParams&
                      "convert the image to an integer or floating-point type");
 }
 
+// Voxels and their frame, from whichever reader, to the grid read_image
+// promises.
+openvdb::FloatGrid::Ptr voxels_to_grid(const RawImage& image, const ImageImportParams& params, const std::string& name)
+{
+    const openvdb::math::Transform::Ptr transform = image_transform(image, name);
+    openvdb::FloatGrid::Ptr grid = dispatch(image, params, name);
+    grid->setTransform(transform);
+    grid->insertMeta("image_size", openvdb::Vec3IMetadata(openvdb::Vec3i(static_cast<int>(image.size[0]),
+                                                                         static_cast<int>(image.size[1]),
+                                                                         static_cast<int>(image.size[2]))));
+    return grid;
+}
+
+// A .vti's voxels as ITK's would be: the same component types and layout.
+RawImage from_vti(VtiVolume volume)
+{
+    using C = itk::IOComponentEnum;
+    using T = vtk_xml::ScalarType;
+    RawImage image;
+    image.size = volume.size;
+    image.spacing = volume.spacing;
+    image.origin = volume.origin;
+    image.direction = volume.direction;
+    switch (volume.type) {
+    case T::Int8: image.component = C::CHAR; break;
+    case T::UInt8: image.component = C::UCHAR; break;
+    case T::Int16: image.component = C::SHORT; break;
+    case T::UInt16: image.component = C::USHORT; break;
+    case T::Int32: image.component = C::INT; break;
+    case T::UInt32: image.component = C::UINT; break;
+    case T::Int64: image.component = C::LONGLONG; break;
+    case T::UInt64: image.component = C::ULONGLONG; break;
+    case T::Float32: image.component = C::FLOAT; break;
+    case T::Float64: image.component = C::DOUBLE; break;
+    }
+    image.data = std::move(volume.data);
+    return image;
+}
+
 void check_params(const ImageImportParams& params)
 {
     const int modes = (params.labels.empty() ? 0 : 1) + (params.threshold ? 1 : 0) + (params.level_set ? 1 : 0);
@@ -883,16 +927,10 @@ openvdb::FloatGrid::Ptr read_image(const std::filesystem::path& path, const Imag
     if (!std::ifstream(path, std::ios::binary))
         throw IoError(name, "cannot be opened for reading; check its permissions");
 
+    if (*format == Format::Vti) return voxels_to_grid(from_vti(read_vti_volume(path)), params, name);
     if (*format == Format::Nifti) check_nifti(path);
     if (*format == Format::MetaImage) check_metaimage(path);
-    const RawImage image = read_with_itk(path, *format);
-    const openvdb::math::Transform::Ptr transform = image_transform(image, name);
-    openvdb::FloatGrid::Ptr grid = dispatch(image, params, name);
-    grid->setTransform(transform);
-    grid->insertMeta("image_size", openvdb::Vec3IMetadata(openvdb::Vec3i(static_cast<int>(image.size[0]),
-                                                                         static_cast<int>(image.size[1]),
-                                                                         static_cast<int>(image.size[2]))));
-    return grid;
+    return voxels_to_grid(read_with_itk(path, *format), params, name);
 }
 
 } // namespace scalemesh

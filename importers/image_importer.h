@@ -1,6 +1,7 @@
 #pragma once
-// Reading medical images (NIfTI, NRRD, MetaImage) into the float grid the
-// isosurface stage takes (paper section 2), through ITK's ImageIO.
+// Reading medical images (NIfTI, NRRD, MetaImage through ITK's ImageIO; VTK
+// XML ImageData through importers/vti_importer.h) into the float grid the
+// isosurface stage takes (paper section 2).
 
 #include <openvdb/openvdb.h>
 
@@ -18,8 +19,8 @@ struct ImageImportParams {
     bool level_set = false;             // signed field, negative inside: values kept as they are
 };
 
-// Reads a 3D scalar image from .nii, .nii.gz, .nrrd, .nhdr, .mha or .mhd
-// (the extension chooses the reader, case-insensitively).
+// Reads a 3D scalar image from .nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd or
+// .vti (the extension chooses the reader, case-insensitively).
 //
 // The grid's transform is the image-to-world map: image voxel (i,j,k) is grid
 // voxel (i,j,k), at world = origin + Direction * diag(spacing) * (i,j,k).
@@ -27,7 +28,13 @@ struct ImageImportParams {
 // left, y posterior, z superior) in the file's length unit, millimetres for
 // NIfTI (ITK converts its metres and microns to mm; it negates NIfTI's RAS x
 // and y, so a NIfTI's world positions come out with x and y negated). NRRD
-// and MetaImage origins, directions and spacings are taken as written.
+// and MetaImage origins, directions and spacings are taken as written, and
+// so are a .vti's (VTK XML ImageData: Origin, Spacing, Direction row by row;
+// no LPS flip; an extent starting at (i0, j0, k0) puts grid voxel (0,0,0) at
+// VTK index (i0, j0, k0)). A .vti is read from its one piece's point-data
+// scalars (the array its Scalars attribute names, else the first): ascii,
+// inline binary or appended raw/base64 data, zlib-compressed or not, either
+// byte order and header type, of any integer or floating-point type.
 // The direction may be a reflection (determinant -1).
 //
 // Labels, threshold, or the default "nonzero": a 0/1 grid named "label" of
@@ -55,12 +62,14 @@ struct ImageImportParams {
 // volume, a multi-component (vector, RGB, complex) image, a zero size, more
 // than 2^31 voxels, a non-positive or non-finite spacing, a singular
 // direction matrix, NaN or infinite voxel values, NIfTI-2 (ITK 5.2 reads
-// NIfTI-1 only), MetaImage voxels stored as text, conflicting params, or no
-// voxel inside (listing up to 10 values present, or the value range).
+// NIfTI-1 only), MetaImage voxels stored as text, a .vti that is not one piece
+// of point data or whose stated sizes, offsets or compressed blocks do not
+// match its bytes (vti_importer.h), conflicting params, or no voxel inside
+// (listing up to 10 values present, or the value range).
 openvdb::FloatGrid::Ptr read_image(const std::filesystem::path& path, const ImageImportParams& params = {});
 
 // True when the extension is one read_image reads (.nii, .nii.gz, .nrrd,
-// .nhdr, .mha, .mhd, any case).
+// .nhdr, .mha, .mhd, .vti, any case).
 bool is_image_file(const std::filesystem::path& path);
 
 } // namespace scalemesh

@@ -33,6 +33,14 @@ std::string read_file_bytes(const std::filesystem::path& path);
 // coordinates by `scale`. Throws InputError when no triangle is left.
 SurfaceMesh weld_polygons(const PolygonSoup& soup, double scale, const std::filesystem::path& path);
 
+// The same, carrying one label per polygon (`polygon_labels`, aligned with
+// soup's polygons; InputError when its length differs) to the triangles:
+// `triangle_labels` receives one label per triangle of the result, in its
+// order, each triangle keeping the label of the polygon it was fanned from.
+// Defined with the STL reader (stl_importer.cpp).
+SurfaceMesh weld_polygons(const PolygonSoup& soup, double scale, const std::filesystem::path& path,
+                          const std::vector<int32_t>& polygon_labels, std::vector<int32_t>& triangle_labels);
+
 // Throws InputError when `scale` is not a positive finite number.
 void require_scale(double scale);
 

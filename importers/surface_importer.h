@@ -7,6 +7,7 @@
 #include "core/tet_mesh.h"
 
 #include <filesystem>
+#include <map>
 #include <string>
 
 namespace scalemesh {
@@ -25,8 +26,10 @@ double unit_to_mm(const std::string& unit);
 //         and the face element's vertex_indices (or vertex_index) list; other
 //         elements and properties are skipped
 //   .obj  "v" and "f" lines (tinyobjloader); every object and group merged
-//   .vtp  VTK XML PolyData, ASCII or inline base64 binary DataArrays,
-//         uncompressed; every Piece's Polys merged (Verts, Lines, Strips are
+//   .vtp  VTK XML PolyData as VTK, VMTK, SimVascular and ParaView write it:
+//         ASCII, inline base64 binary or appended (raw or base64) DataArrays,
+//         zlib-compressed or not, UInt32 or UInt64 headers, little- or
+//         big-endian; every Piece's Polys merged (Verts, Lines, Strips are
 //         refused)
 //   .msh  Gmsh MSH 2.2 or 4.1: every 3-node triangle (exporters/msh_reader.h);
 //         physical groups are not kept
@@ -43,9 +46,36 @@ double unit_to_mm(const std::string& unit);
 // Throws IoError when the file is missing or unreadable; InputError for an
 // unknown extension, a wrong magic number or header, a truncated file, a count
 // the file cannot hold, a NaN or infinite coordinate, an index out of range,
-// a face of fewer than three corners, no triangles at all, compressed or
-// appended VTP data, or a `scale` that is not a positive finite number.
+// a face of fewer than three corners, no triangles at all, VTP data whose
+// stated sizes, offsets or compressed blocks do not match the file's bytes
+// or that use a compressor other than zlib, or a `scale` that is not a
+// positive finite number.
 SurfaceMesh read_surface(const std::filesystem::path& path, double scale = 1.0);
+
+// Per-triangle labels a surface file carries: a VTP cell array such as
+// SimVascular's ModelFaceID or CapID, or VMTK's CellEntityIds; the physical
+// surfaces of a .msh. Labels are never dropped silently: a caller that does
+// not use them says so.
+struct SurfaceLabels {
+    std::string source;                    // where they came from: "cell array ModelFaceID", "physical surfaces"; empty: none
+    std::vector<int32_t> per_triangle;     // one label per triangle of the mesh, in its order; empty: none
+    std::map<int32_t, std::string> names;  // names of label values where the file gives them
+    bool empty() const { return per_triangle.empty(); }
+};
+
+struct LabelledSurface {
+    SurfaceMesh mesh;      // as read_surface returns it; triangle_patch left empty
+    SurfaceLabels labels;  // aligned with mesh.triangles (welding and dropped triangles accounted for)
+};
+
+// read_surface with the file's face labels. A .vtp takes the first of its
+// integer cell arrays named ModelFaceID, CapID, CellEntityIds, FaceID,
+// GroupIds (or the only integer cell array when there is exactly one); a
+// .msh its physical surfaces (names from $PhysicalNames). Other formats
+// have none.
+LabelledSurface read_labelled_surface(const std::filesystem::path& path, double scale = 1.0);
+LabelledSurface read_vtp_labelled(const std::filesystem::path& path, double scale = 1.0);
+LabelledSurface read_msh_labelled(const std::filesystem::path& path, double scale = 1.0);
 
 // The readers behind read_surface, for one format each; same guarantees.
 SurfaceMesh read_ply(const std::filesystem::path& path, double scale = 1.0);

@@ -19,10 +19,13 @@
 
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <iostream>
+#include <memory>
+#include <optional>
 #include <unistd.h>
 
 namespace {
@@ -38,6 +41,36 @@ void on_signal(int signal)
 
 std::string extension_of(const std::string& path) { return std::filesystem::path(path).extension().string(); }
 
+// OpenFOAM's habit: `scalemesh -case DIR [options]` is `scalemesh run DIR
+// [options]`. CLI11 reads "-case" as four short flags, so the arguments are
+// rewritten before parsing. Throws CLI::ParseError for a "-case" without a
+// directory or beside another verb.
+std::vector<std::string> openfoam_style(int argc, char** argv, const CLI::App& app)
+{
+    std::vector<std::string> args(argv + 1, argv + argc);
+    const auto at = std::find(args.begin(), args.end(), "-case");
+    if (at == args.end()) return args;
+    if (at + 1 == args.end()) throw CLI::ArgumentMismatch("-case needs the case directory: scalemesh -case DIR");
+    for (auto a = args.begin(); a != args.end(); ++a)
+        for (const CLI::App* verb : app.get_subcommands([](const CLI::App*) { return true; }))
+            if (a != at + 1 && *a == verb->get_name())
+                throw CLI::ExtrasError("-case DIR is `scalemesh run DIR`: give it without the verb '" + *a + "'",
+                                       CLI::ExitCodes::ExtrasError);
+    const std::string dir = *(at + 1);
+    args.erase(at, at + 2);
+    args.insert(args.begin(), {"run", dir});
+    return args;
+}
+
+// The listener that passes each stage event to both displays.
+StageListener both(StageListener a, StageListener b)
+{
+    return [a = std::move(a), b = std::move(b)](const StageTime& stage) {
+        a(stage);
+        b(stage);
+    };
+}
+
 } // namespace
 
 int main(int argc, char** argv)
@@ -48,6 +81,7 @@ int main(int argc, char** argv)
 
     CLI::App app{"scalemesh " SCALEMESH_VERSION
                  ": scale-invariant layered tetrahedral meshes from segmented images, for CFD"};
+    app.footer("As in OpenFOAM, scalemesh -case DIR [OPTIONS] is scalemesh run DIR [OPTIONS].");
     app.require_subcommand(1);
     app.fallthrough(); // -q and -v after the verb too
     app.set_version_flag("--version", SCALEMESH_VERSION);
@@ -98,7 +132,8 @@ int main(int argc, char** argv)
 
     // run
     std::string case_dir;
-    auto* run_cmd = app.add_subcommand("run", "Run a case directory (scalemesh.toml) and write its outputs into it");
+    auto* run_cmd = app.add_subcommand("run", "Run a case directory (scalemesh.toml) and write its outputs into it, "
+                                              "with the run's log in log.scalemesh (also: scalemesh -case DIR)");
     run_cmd->add_option("case", case_dir, "Case directory holding scalemesh.toml")->required();
     std::optional<int> threads;
     run_cmd->add_option("--threads", threads,
@@ -119,7 +154,9 @@ int main(int argc, char** argv)
     check_cmd->add_option("mesh", check_mesh, "Volume mesh (.msh, as scalemesh run writes it)")->required();
 
     try {
-        app.parse(argc, argv);
+        std::vector<std::string> args = openfoam_style(argc, argv, app);
+        std::reverse(args.begin(), args.end()); // CLI11 takes them last first
+        app.parse(args);
     } catch (const CLI::ParseError& e) {
         return app.exit(e);
     }
@@ -189,18 +226,39 @@ int main(int argc, char** argv)
             const auto start = std::chrono::steady_clock::now();
             const CaseConfig config = read_case(case_dir);
             const int64_t memory_bound = max_memory.empty() ? 0 : parse_memory_size(max_memory, "--max-memory");
-            const CaseResult result = run_case(case_dir, display.listener(), threads, memory_bound);
-            display.summary(config, result,
-                            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-            if (verbosity != Verbosity::Quiet || strict)
-                for (const std::string& w : result.warnings)
-                    std::fprintf(stderr, "scalemesh: warning: %s\n", w.c_str());
-            if (strict && !result.warnings.empty()) {
-                std::fprintf(stderr,
-                             "scalemesh: error: the mesh misses %zu of the case's floors (--strict); the outputs "
-                             "and report.json (\"warnings\") are written for inspection. Hint: refine (smaller "
-                             "L_max, larger M) or lower the floors in [volume]\n",
-                             result.warnings.size());
+            // log.scalemesh: the lines a run prints when not quiet, as a log
+            // file wants them (no bar), put in place with the outputs only
+            // when the run succeeds.
+            AtomicOutput log_output(config.directory / "log.scalemesh");
+            std::unique_ptr<std::FILE, int (*)(std::FILE*)> log_file(std::fopen(log_output.temporary().c_str(), "w"),
+                                                                    &std::fclose);
+            if (!log_file) throw IoError(log_output.path().string(), "cannot write the run's log");
+            std::optional<ProgressDisplay> log_display;
+            log_display.emplace(verbosity == Verbosity::Verbose ? Verbosity::Verbose : Verbosity::Normal,
+                                log_file.get(), false, 6);
+            const CaseResult result =
+                run_case(case_dir, both(display.listener(), log_display->listener()), threads, memory_bound);
+            const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+            display.summary(config, result, seconds);
+            log_display->summary(config, result, seconds);
+            for (const std::string& w : result.warnings) {
+                if (verbosity != Verbosity::Quiet || strict) std::fprintf(stderr, "scalemesh: warning: %s\n", w.c_str());
+                std::fprintf(log_file.get(), "scalemesh: warning: %s\n", w.c_str());
+            }
+            const bool missed_floors = strict && !result.warnings.empty();
+            char strict_line[512];
+            std::snprintf(strict_line, sizeof strict_line,
+                          "scalemesh: error: the mesh misses %zu of the case's floors (--strict); the outputs "
+                          "and report.json (\"warnings\") are written for inspection. Hint: refine (smaller "
+                          "L_max, larger M) or lower the floors in [volume]\n",
+                          result.warnings.size());
+            if (missed_floors) std::fputs(strict_line, log_file.get());
+            log_display.reset();
+            if (std::fclose(log_file.release()) != 0)
+                throw IoError(log_output.path().string(), "cannot write the run's log");
+            log_output.commit();
+            if (missed_floors) {
+                std::fputs(strict_line, stderr);
                 return 6;
             }
         }

@@ -8,6 +8,9 @@
 // (madvise MADV_HUGEPAGE) when the tunable glibc.malloc.hugetlb=1 is set, but
 // tunables are read only when a process starts. So a program that wants them
 // sets the tunable and executes itself again, once, first thing in main.
+// Only programs call it (the command line, the benchmarks): re-executing the
+// process is no business of a library, and the scalemesh library
+// (include/scalemesh/) never does.
 
 namespace scalemesh {
 

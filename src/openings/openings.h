@@ -20,7 +20,9 @@
 #include "sizing/feature_size.h"
 #include "volume/offset_points.h"
 
+#include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -47,7 +49,8 @@ struct OpeningSpec {
     Plane plane;          // clip plane (border == false)
     double radius = 0;    // mm; 0: the plane must cross the lumen exactly once
     std::string side;     // border == true
-    double inset = 0;     // mm, border openings
+    std::optional<double> inset; // mm, border openings; empty: "auto", where the cross-section
+                                 // stops shrinking (BorderRule)
     double extension = 0; // flow extension: length in diameters of the cap (2 sqrt(area / pi)); 0 = none
 };
 
@@ -56,6 +59,32 @@ struct OpeningSpec {
 struct ImageFrame {
     Vec3 origin{0, 0, 0};
     Vec3 axis[3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    // Voxels per axis (the grid's "image_size" metadata): voxel centres lie
+    // at index 0 .. size - 1, so the image faces are at index -1/2 and
+    // size - 1/2, where marching cubes closes a mask that runs off the image.
+    // 0: not known (a surface input, a phantom); the face of a side is then
+    // taken at the outermost surface point on it.
+    std::array<int64_t, 3> size{0, 0, 0};
+};
+
+// The automatic inset of a border opening (OpeningSpec::inset empty), in
+// voxel widths along the side's axis, counted from the outermost surface
+// point on the side:
+// - a piece of the lumen "reaches" the side when its outermost point lies
+//   within `reach` of the image face; a piece beyond the search depth's last
+//   plane that does not is "short": reported, never capped;
+// - the cross-section of each reaching piece (the part of the plane inside
+//   it, summed over its crossings) is measured on planes 1, 2, ...,
+//   `search_depth` voxels inside the outermost point; the search stops before
+//   a plane where two reaching pieces are joined beyond it;
+// - the inset is the first plane k whose every reaching piece has at least
+//   (1 - shrink_tolerance) of the area it has on plane k + 1 (the taper or
+//   the rounding of the image face is behind it); when no plane qualifies
+//   the deepest plane searched is used and a warning says so.
+struct BorderRule {
+    static constexpr int search_depth = 10;           // voxels
+    static constexpr double shrink_tolerance = 0.05;  // fraction of area per voxel
+    static constexpr double reach = 2.0;              // voxels from the image face
 };
 
 struct Cap {
@@ -67,15 +96,44 @@ struct Cap {
     Vec3 centroid;      // area centroid when made
 };
 
+// A piece of the lumen near a border side that stops short of the image
+// face: not capped, it stays a dead end of the lumen it belongs to.
+struct ShortPiece {
+    Vec3 tip;            // its outermost surface point on the side
+    double distance = 0; // mm from the image face to the tip, along the side's axis
+};
+
+// Where a border opening was cut, and what it left.
+struct BorderCut {
+    std::string opening;
+    std::string side;
+    double inset = 0;       // mm inside the outermost surface point on the side (the plane's depth)
+    double voxel = 0;       // mm, the voxel width along the side's axis
+    bool automatic = false; // the inset was chosen by BorderRule
+    bool stable = true;     // automatic: some plane of the search met the rule
+    bool face_known = false; // ImageFrame::size was given; else distances are from the outermost point
+    std::vector<ShortPiece> short_pieces;
+};
+
 struct CappedSurface {
     SurfaceMesh surface; // closed, oriented; triangle_patch set
     std::vector<Cap> caps;
+    std::vector<BorderCut> borders;    // one per border opening, in the order given
+    std::vector<std::string> warnings; // one line each, naming the opening: short pieces, an inset that never settled
 };
 
-// Cuts `surface` (closed, oriented 2-manifold, outward normals) by every
-// opening in order and caps each crossing. A border opening becomes one cap
-// per separate piece of its cross-section, named "<name>_1", "<name>_2", ...
-// by decreasing area (just "<name>" when there is one piece).
+// Cuts `surface` (closed, oriented 2-manifold, outward normals) at every
+// opening and caps each crossing. A border opening becomes one cap per
+// separate piece of its cross-section, named "<name>_1", "<name>_2", ... by
+// decreasing area (just "<name>" when there is one piece); only the pieces
+// of the lumen that reach the image face are capped (BorderRule), the others
+// are listed in CappedSurface::borders and warnings.
+//
+// Every opening is planned on the input surface, independently of the
+// others: its plane, the crossings it cuts, the part beyond them. A plane
+// splits only the triangles of its chosen crossings, so planes may meet
+// anywhere outside them. The result does not depend on the order of
+// `openings` except for the patch numbers: caps are numbered in that order.
 //
 // With `extension` > 0 the opening is then extruded along its normal by
 // that many cap diameters, as the paper did for the rat nose, so that inflow
@@ -92,8 +150,10 @@ struct CappedSurface {
 // no crossing lies within `radius` of its point); a plane crosses the lumen
 // in several places and no radius picks one; the part of the surface beyond
 // the chosen crossing reaches back across the plane elsewhere (move the
-// plane or give a radius); a plane cuts an earlier opening's cap; two
-// openings share a name; nothing would be left.
+// plane or give a radius); no part of the lumen reaches a border side; and,
+// naming both, when the crossings of two openings meet (share a triangle of
+// the surface) or one lies in the part another removes; two openings share
+// a name; nothing would be left.
 CappedSurface cut_and_cap(const SurfaceMesh& surface, const std::vector<OpeningSpec>& openings,
                           const ImageFrame& frame);
 

@@ -11,6 +11,7 @@
 #include <climits>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <set>
 #include <sstream>
 
@@ -244,7 +245,7 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
         for (size_t i = 0; i < openings->size(); ++i) {
             const toml::table* table = (*openings)[i].as_table();
             const Section opening(table, "openings] [" + std::to_string(i + 1), source,
-                                  {"name", "type", "point", "normal", "radius", "border", "inset", "extension"});
+                                  {"name", "type", "point", "normal", "radius", "border", "inset", "extension", "near", "label"});
             CaseConfig::Opening item;
             OpeningSpec& spec = item.spec;
             spec.name = opening.get<std::string>("name").value_or("");
@@ -280,6 +281,28 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
                 return out;
             };
             const bool plane = opening.has("point") || opening.has("normal");
+            if (opening.has("near") || opening.has("label")) {
+                // An open end of the surface (or a flat labelled cap), found at import.
+                if (plane || opening.has("border") || opening.has("radius") || opening.has("inset") ||
+                    (opening.has("near") && opening.has("label")))
+                    throw InputError(source + ": opening '" + spec.name + "' names an open end by " +
+                                         (opening.has("near") ? "near" : "label") +
+                                         " and must not also give " +
+                                         (opening.has("near") && opening.has("label") ? "label" : "a plane, border, radius or inset"),
+                                     "keep near = [x, y, z] (a point near the end's loop) or label = N, not both, "
+                                     "and no plane");
+                if (opening.has("near")) item.near = vector("near");
+                if (opening.has("label")) {
+                    const auto label = opening.get<int64_t>("label");
+                    if (!label || *label < 0 || *label > std::numeric_limits<int32_t>::max())
+                        throw InputError(opening.where("label") + " must be a face label, an integer >= 0",
+                                         "write label = 2 (the ModelFaceID or physical surface of the cap)");
+                    item.label = static_cast<int32_t>(*label);
+                }
+                spec.extension = opening.number("extension", 0, 0, 100);
+                config.openings.push_back(item);
+                continue;
+            }
             if (plane == opening.has("border"))
                 throw InputError(source + ": opening '" + spec.name + "' needs either point and normal (a clip plane) "
                                  "or border (a side of the image)",
@@ -307,7 +330,13 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
                 if (opening.has("radius"))
                     throw InputError(opening.where("radius") + " applies to clip planes only",
                                      "remove it: every piece of the border cross-section becomes an opening");
-                if (opening.has("inset")) item.inset = opening.length("inset");
+                // inset: "auto" (the default) leaves spec.inset empty for cut_and_cap
+                // to choose; a length is kept in item.inset and marks spec.inset
+                // as given, resolved to mm once the voxel width is known.
+                if (opening.has("inset") && opening.get<std::string>("inset").value_or("") != "auto") {
+                    item.inset = opening.length("inset");
+                    spec.inset = 0.0;
+                }
             }
             spec.extension = opening.number("extension", 0, 0, 100);
             config.openings.push_back(item);

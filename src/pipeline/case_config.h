@@ -69,11 +69,14 @@ struct CaseConfig {
     double min_aspect_ratio = 0.1;    // worst tet aspect ratio (2 sqrt(6) r_in / l_max)
     double min_dihedral_deg = 0;      // smallest dihedral angle, degrees (0: no floor)
 
-    // [[openings]]: inlets and outlets, in the order they are cut. A border
-    // opening's inset is resolved to mm with the voxel width (default 2 voxels).
+    // [[openings]]: inlets and outlets, patches in the file's order. A border
+    // opening's explicit inset (spec.inset set) is resolved to mm with the
+    // voxel width; "auto", the default, leaves it to cut_and_cap.
     struct Opening {
         OpeningSpec spec;
         Length inset{2.0, true};
+        std::optional<Vec3> near;     // an open end of the surface: the one whose centre is nearest this point
+        std::optional<int32_t> label; // an open end: the flat cap of this face label
     };
     std::vector<Opening> openings;
 

@@ -10,7 +10,7 @@
 #include "smoothing/volume_conserving_smoothing.h"
 #include "volume/quality.h"
 
-#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <chrono>
@@ -18,6 +18,7 @@
 #include <cstdio>
 #include <fstream>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <tuple>
 
@@ -170,15 +171,234 @@ SizingParams sizing_params(const CaseConfig& config, const PipelineRun& run)
     return params;
 }
 
+// Whether `name` can be an opening's patch name: a word of letters, digits
+// and '_' not starting with a digit, and not "wall".
+bool patch_name(const std::string& name)
+{
+    return !name.empty() && name != "wall" && !std::isdigit(static_cast<unsigned char>(name[0])) &&
+           std::all_of(name.begin(), name.end(),
+                       [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
+}
+
+// The warning for a surface whose size is implausible for a vessel, an
+// airway or a heart in its declared unit, with the likely unit; empty when
+// it is plausible (0.5 mm to 2 m across).
+std::string units_warning(const SurfaceMesh& surface, const CaseConfig& config)
+{
+    Vec3 lo, hi;
+    bounding_box(surface, lo, hi);
+    const double size = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+    if (size >= 0.5 && size <= 2000) return "";
+    struct Unit {
+        const char* name;
+        double to_mm;
+    };
+    const Unit units[] = {{"um", 1e-3}, {"mm", 1}, {"cm", 10}, {"m", 1000}};
+    // The unit that puts the size closest to 50 mm (on a log scale).
+    const double file_size = size / config.units_to_mm;
+    const Unit* likely = &units[0];
+    for (const Unit& u : units)
+        if (std::abs(std::log(file_size * u.to_mm / 50)) < std::abs(std::log(file_size * likely->to_mm / 50)))
+            likely = &u;
+    char line[400];
+    std::snprintf(line, sizeof line,
+                  "the surface is %.4g mm across, implausible for an anatomy read in %s; if the file is in %s, "
+                  "set [input] units = \"%s\" (it would be %.4g mm across)",
+                  size, config.units.c_str(), likely->name, likely->name, file_size * likely->to_mm);
+    return line;
+}
+
+// Reads a surface file into `surface`, closed and oriented outwards. Labelled
+// flat caps are taken out and every open end is closed by a fan, to be cut
+// flat by the openings stage (openings/open_ends.h). Returns the import
+// stage's line.
+std::string import_surface(LabelledSurface read, const std::string& what, const CaseConfig& config, PipelineRun& run,
+                           SurfaceMesh& surface)
+{
+    surface = std::move(read.mesh);
+    std::ostringstream note;
+    note << "read " << surface.triangles.size() << " triangles"
+         << (config.units == "mm" ? "" : " in " + config.units + ", scaled to mm");
+    std::vector<int32_t> loop_labels;
+    if (!read.labels.empty()) {
+        LabelCaps caps = remove_label_caps(surface, read.labels.per_triangle);
+        run.label_source = read.labels.source;
+        run.label_names = read.labels.names;
+        run.label_parts = caps.parts;
+        note << "; " << caps.parts.size() << " face label" << (caps.parts.size() == 1 ? "" : "s") << " ("
+             << read.labels.source << "):";
+        for (const LabelPart& part : caps.parts) {
+            note << " " << part.label;
+            const auto name = read.labels.names.find(part.label);
+            if (name != read.labels.names.end()) note << " '" << name->second << "'";
+            note << (part.cap ? " flat cap" : " wall") << (&part == &caps.parts.back() ? "" : ",");
+        }
+        surface = std::move(caps.surface);
+        loop_labels = std::move(caps.loop_label);
+    }
+    run.voxel_width = mean_edge_length(surface);
+    if (surface_facts(surface).boundary_edges > 0) {
+        ClosedEnds closed = close_open_ends(surface, what, loop_labels);
+        surface = std::move(closed.surface);
+        run.open_ends = std::move(closed.ends);
+        int64_t own = 0;
+        for (const OpenEnd& end : run.open_ends) own += end.label < 0;
+        if (own > 0) note << "; " << own << " open end" << (own == 1 ? "" : "s") << ", to be cut flat and capped";
+        if (closed.flipped) note << "; wound inwards: reversed";
+    } else {
+        require_closed_manifold(surface, what);
+        if (orient_outward(surface)) note << "; wound inwards: reversed";
+    }
+    run.isosurface = surface_facts(surface);
+    if (const std::string warning = units_warning(surface, config); !warning.empty()) run.warnings.push_back(warning);
+    return note.str();
+}
+
+// A clip plane's point belongs inside the lumen: one farther from the
+// surface's bounding box than the box is large is refused, with the units
+// it would fit.
+void check_opening_points(const CaseConfig& config, const SurfaceMesh& surface)
+{
+    Vec3 lo, hi;
+    bounding_box(surface, lo, hi);
+    const double size = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+    for (const CaseConfig::Opening& opening : config.openings) {
+        const bool plane = !opening.spec.border && !opening.near && !opening.label;
+        const std::optional<Vec3> point = plane ? std::optional<Vec3>(opening.spec.plane.point) : opening.near;
+        if (!point) continue;
+        Vec3 outside;
+        for (int k = 0; k < 3; ++k) outside[k] = std::max({lo[k] - (*point)[k], 0.0, (*point)[k] - hi[k]});
+        if (norm(outside) <= size) continue;
+        std::ostringstream msg;
+        msg << "opening '" << opening.spec.name << "': its point (" << point->x << ", " << point->y << ", "
+            << point->z << ") mm is " << norm(outside) << " mm outside the surface, which spans (" << lo.x << ", "
+            << lo.y << ", " << lo.z << ") to (" << hi.x << ", " << hi.y << ", " << hi.z << ") mm";
+        std::string hint = "give a point inside the lumen, in mm";
+        if (norm(*point) > 100 * size) hint += "; the point looks like it is in smaller units than the surface "
+                                               "(check [input] units and the point's unit)";
+        else if (norm(*point) * 100 < size) hint += "; the point looks like it is in larger units (metres?) "
+                                                    "than the surface (points are in mm)";
+        throw InputError(msg.str(), hint);
+    }
+}
+
+// Smoothing keeps the open ends where they are: the fan centres fixed and
+// the loop nodes within their end's plane, so that the openings stage cuts
+// them flat just inside the loop.
+SmoothingConstraint open_end_constraint(const PipelineRun& run, size_t points)
+{
+    SmoothingConstraint constraint;
+    if (run.open_ends.empty()) return constraint;
+    constraint.fixed.assign(points, 0);
+    constraint.plane_normal.assign(points, Vec3{0, 0, 0});
+    for (const OpenEnd& end : run.open_ends) {
+        constraint.fixed[end.centre_point] = 1;
+        for (int32_t p : end.loop) constraint.plane_normal[p] = end.normal;
+    }
+    return constraint;
+}
+
+// The openings of the open ends: those the case file names by `near` or
+// `label`, in the file's order, then the others by decreasing area, the
+// largest named "inlet" when the case file gives no inlet, the others
+// outlet_1, outlet_2, ... (a labelled cap without a case-file name: its
+// label's name from the file, else cap_<label>).
+std::vector<OpeningSpec> end_openings(const CaseConfig& config, const PipelineRun& run)
+{
+    std::vector<OpeningSpec> specs;
+    for (const CaseConfig::Opening& opening : config.openings)
+        if ((opening.near || opening.label) && run.open_ends.empty())
+            throw InputError("opening '" + opening.spec.name + "' names an open end (near or label), but " +
+                                 (run.input.empty() ? "the input" : run.input) +
+                                 " has no open ends or flat labelled caps",
+                             "give a clip plane (point and normal) or a border side instead");
+    if (run.open_ends.empty()) return specs;
+    std::vector<char> taken(run.open_ends.size(), 0);
+    std::set<std::string> used;
+    bool inlet = false;
+    for (const CaseConfig::Opening& opening : config.openings) {
+        used.insert(opening.spec.name);
+        inlet |= opening.spec.type == OpeningType::Inlet;
+    }
+    const auto margin = [](const OpenEnd& end) { return 0.25 * end.mean_edge; };
+    for (const CaseConfig::Opening& opening : config.openings) {
+        if (!opening.near && !opening.label) continue;
+        size_t best = run.open_ends.size();
+        if (opening.label) {
+            for (size_t i = 0; i < run.open_ends.size(); ++i)
+                if (run.open_ends[i].label == *opening.label) best = i;
+            if (best == run.open_ends.size()) {
+                std::string have;
+                for (const LabelPart& part : run.label_parts)
+                    if (part.cap) have += (have.empty() ? "" : ", ") + std::to_string(part.label);
+                throw InputError("opening '" + opening.spec.name + "': no flat labelled cap has label " +
+                                     std::to_string(*opening.label) +
+                                     (run.label_source.empty() ? " (the input has no face labels)"
+                                                               : " (" + run.label_source + ")"),
+                                 have.empty() ? "name the opening by near = [x, y, z] or give a clip plane"
+                                              : "choose one of the cap labels: " + have);
+            }
+        } else {
+            double nearest = INFINITY;
+            for (size_t i = 0; i < run.open_ends.size(); ++i) {
+                const double d = distance(run.open_ends[i].centre, *opening.near);
+                if (d < nearest) {
+                    nearest = d;
+                    best = i;
+                }
+            }
+            const OpenEnd& end = run.open_ends[best];
+            if (nearest > 2 * end.radius + 0.5 * end.mean_edge) {
+                std::ostringstream msg;
+                msg << "opening '" << opening.spec.name << "': near = (" << opening.near->x << ", " << opening.near->y
+                    << ", " << opening.near->z << ") mm is " << nearest << " mm from the nearest open end, centred at ("
+                    << end.centre.x << ", " << end.centre.y << ", " << end.centre.z << ") with radius " << end.radius
+                    << " mm";
+                throw InputError(msg.str(), "give a point within the end's radius of its centre (the open ends are "
+                                            "listed on the import line); if it is far off, check [input] units");
+            }
+        }
+        if (taken[best])
+            throw InputError("opening '" + opening.spec.name + "' names the same open end as an earlier opening",
+                             "give each opening its own end");
+        taken[best] = 1;
+        specs.push_back(end_opening(run.open_ends[best], opening.spec.name, opening.spec.type, margin(run.open_ends[best])));
+        specs.back().extension = opening.spec.extension;
+    }
+    int outlet = 0;
+    for (size_t i = 0; i < run.open_ends.size(); ++i) {
+        if (taken[i]) continue;
+        const OpenEnd& end = run.open_ends[i];
+        const OpeningType type = inlet ? OpeningType::Outlet : OpeningType::Inlet;
+        std::string name;
+        if (end.label >= 0) {
+            const auto it = run.label_names.find(end.label);
+            name = it != run.label_names.end() && patch_name(it->second) ? it->second
+                                                                          : "cap_" + std::to_string(end.label);
+        } else if (type == OpeningType::Inlet) {
+            name = "inlet";
+        } else {
+            do name = "outlet_" + std::to_string(++outlet);
+            while (used.count(name));
+        }
+        if (!used.insert(name).second)
+            throw InputError("open end at (" + std::to_string(end.centre.x) + ", " + std::to_string(end.centre.y) +
+                                 ", " + std::to_string(end.centre.z) + ") would be named '" + name +
+                                 "', which another opening has",
+                             "name this end in the case file: [[openings]] with name, type and near = [x, y, z]");
+        inlet = true;
+        specs.push_back(end_opening(end, name, type, margin(end)));
+    }
+    return specs;
+}
+
 } // namespace
 
-PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& options,
-                                const StageListener& listener)
+namespace {
+
+// The stages in order; run_pipeline runs them inside the case's task arena.
+PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options, const StageListener& listener)
 {
-    // Every parallel stage (TBB, and Embree's TBB tasks) within the case's
-    // thread count; 0 leaves TBB's default, every core.
-    std::optional<tbb::global_control> thread_limit;
-    if (config.threads > 0) thread_limit.emplace(tbb::global_control::max_allowed_parallelism, config.threads);
     PipelineRun run;
     SurfaceMesh surface;
     // Index-to-world map of the image, for border openings; for a surface
@@ -189,18 +409,15 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
                                            : config.directory / config.file;
     const std::string ext = file.extension().string();
 
-    if (!config.file.empty() && is_surface_file(file)) {
+    if (options.surface) {
         StageClock clock(run, listener, "import");
-        surface = read_surface(file, config.units_to_mm);
-        require_closed_manifold(surface, file.string());
-        const bool flipped = orient_outward(surface);
+        run.input = "surface given by the caller";
+        clock.done(import_surface(*options.surface, "the surface given", config, run, surface));
+    } else if (!config.file.empty() && is_surface_file(file)) {
+        StageClock clock(run, listener, "import");
         run.input = file.string();
         run.input_checksum = file_checksum(file);
-        run.voxel_width = mean_edge_length(surface);
-        run.isosurface = surface_facts(surface);
-        clock.done("read " + std::to_string(surface.triangles.size()) + " triangles" +
-                   (config.units == "mm" ? "" : " in " + config.units + ", scaled to mm") +
-                   (flipped ? ", wound inwards: reversed" : ""));
+        clock.done(import_surface(read_labelled_surface(file, config.units_to_mm), file.string(), config, run, surface));
     } else {
         openvdb::FloatGrid::Ptr grid;
         {
@@ -219,7 +436,7 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
                 run.input_checksum = file_checksum(file);
             } else {
                 throw InputError("cannot read '" + file.string() + "': unknown input format '" + ext + "'",
-                                 "give an image (.vdb, .nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd) or a closed "
+                                 "give an image (.vdb, .nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd, .vti) or a "
                                  "surface (.stl, .ply, .obj, .vtp, .msh)");
             }
             const openvdb::math::Transform& transform = grid->transform();
@@ -231,6 +448,10 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
                 const openvdb::Vec3d axis = transform.indexToWorld(unit) - origin;
                 frame.axis[k] = {axis.x(), axis.y(), axis.z()};
             }
+            // The image faces, for border openings (phantoms and .vdb grids
+            // without the metadata: the outermost surface point stands in).
+            if (const auto size = grid->getMetadata<openvdb::Vec3IMetadata>("image_size"))
+                for (int k = 0; k < 3; ++k) frame.size[k] = size->value()[k];
             const openvdb::Vec3d spacing = grid->voxelSize();
             run.voxel_width = std::min({spacing.x(), spacing.y(), spacing.z()});
             if (!is_level_set(*grid)) run.inside_voxels = static_cast<int64_t>(grid->activeVoxelCount());
@@ -247,15 +468,17 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
         StageClock clock(run, listener, "smoothing");
         SmoothingParams smoothing = config.smoothing;
         smoothing.max_displacement = config.smoothing_reach.mm(run.voxel_width);
-        smooth_volume_conserving(surface, smoothing);
+        const SmoothingConstraint ends = open_end_constraint(run, surface.points.size());
+        smooth_volume_conserving(surface, smoothing, run.open_ends.empty() ? nullptr : &ends);
         run.facts = surface_facts(surface);
         clock.done(std::to_string(config.smoothing.sweeps) + " sweeps, omega " + std::to_string(config.smoothing.omega) +
                    ", volume change " + std::to_string(run.facts.signed_volume - run.isosurface.signed_volume) + " mm^3");
     }
 
-    if (!config.openings.empty()) {
+    check_opening_points(config, surface);
+    if (!config.openings.empty() || !run.open_ends.empty()) {
         StageClock clock(run, listener, "openings");
-        if (!config.file.empty() && is_surface_file(file)) {
+        if (options.surface || (!config.file.empty() && is_surface_file(file))) {
             // No image: border sides follow the world axes.
             for (int k = 0; k < 3; ++k) {
                 frame.axis[k] = Vec3{0, 0, 0};
@@ -264,17 +487,31 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
         }
         std::vector<OpeningSpec> specs;
         for (const CaseConfig::Opening& opening : config.openings) {
+            if (opening.near || opening.label) continue; // an open end: end_openings below
             specs.push_back(opening.spec);
-            specs.back().inset = opening.inset.mm(run.voxel_width);
+            if (opening.spec.inset) specs.back().inset = opening.inset.mm(run.voxel_width);
         }
+        for (OpeningSpec& end : end_openings(config, run)) specs.push_back(std::move(end));
         CappedSurface capped = cut_and_cap(surface, specs, frame);
         surface = std::move(capped.surface);
         run.caps = std::move(capped.caps);
+        run.warnings.insert(run.warnings.end(), capped.warnings.begin(), capped.warnings.end());
         std::tie(run.closed_regions_dropped, run.closed_regions_volume) = drop_closed_regions(surface);
         run.opened = surface_facts(surface);
         std::ostringstream summary;
         summary << run.caps.size() << " cap" << (run.caps.size() == 1 ? "" : "s") << ":";
         for (const Cap& cap : run.caps) summary << " " << cap.name << " (" << cap.area << " mm^2)";
+        // Border openings: where the plane went, and the pieces of the lumen
+        // that stop short of the image face (no cap, a dead end).
+        for (const BorderCut& border : capped.borders) {
+            summary << "; " << border.opening << " at " << border.inset << " mm ("
+                    << border.inset / border.voxel << " voxels" << (border.automatic ? ", auto" : "")
+                    << (border.automatic && !border.stable ? ", never settled" : "") << ") inside the "
+                    << border.side << " side";
+            for (const ShortPiece& piece : border.short_pieces)
+                summary << ", a piece " << piece.distance << " mm short of the "
+                        << (border.face_known ? "image face" : "outermost point") << " not capped";
+        }
         if (run.closed_regions_dropped > 0)
             summary << "; " << run.closed_regions_dropped << " separate region"
                     << (run.closed_regions_dropped == 1 ? "" : "s") << " without an opening left out ("
@@ -397,6 +634,18 @@ PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& option
         clock.done(summary.str());
         return run;
     }
+}
+
+} // namespace
+
+PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& options, const StageListener& listener)
+{
+    // Every parallel stage (TBB, and Embree's TBB tasks) within the case's
+    // thread count, in an arena of the run's own rather than through
+    // tbb::global_control: a library must not change the parallelism of the
+    // process it is part of. 0 leaves TBB's default, every core.
+    tbb::task_arena arena(config.threads > 0 ? config.threads : tbb::task_arena::automatic);
+    return arena.execute([&] { return run_stages(config, options, listener); });
 }
 
 const SurfaceMesh& final_surface(const PipelineRun& run) { return run.remeshed ? run.remeshed->surface : run.surface; }

@@ -5,6 +5,8 @@
 // order of the stages.
 
 #include "core/surface_mesh.h"
+#include "importers/surface_importer.h"
+#include "openings/open_ends.h"
 #include "openings/openings.h"
 #include "pipeline/case_config.h"
 #include "remeshing/remesh.h"
@@ -12,6 +14,7 @@
 #include "volume/volume_mesh.h"
 
 #include <functional>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -36,6 +39,12 @@ struct PipelineRun {
     SurfaceFacts isosurface;      // facts of the surface before smoothing
     SurfaceMesh surface;          // after smoothing, and cut and capped at the openings
     std::vector<Cap> caps;        // the openings' caps: cap i is surface patch i + 1
+    std::vector<OpenEnd> open_ends; // of an open-ended surface input (or its labelled caps), closed by fans
+                                    // until the openings stage cuts them flat
+    std::vector<LabelPart> label_parts; // the face labels of the input file, as the import judged them
+    std::map<int32_t, std::string> label_names; // names of label values the file gives
+    std::string label_source;     // where those labels came from ("cell array ModelFaceID", ...)
+    std::vector<std::string> warnings; // what the run found doubtful in its input (units), for report.json
     SurfaceFacts opened;          // facts of `surface` after the openings were cut (facts: before)
     int64_t closed_regions_dropped = 0;    // separate regions without an opening, left out of the mesh
     double closed_regions_volume = 0;      // mm^3 they enclosed
@@ -64,6 +73,11 @@ struct PipelineOptions {
     int64_t max_memory = 0; // bytes: a run whose estimated peak memory exceeds this stops with an
                             // InputError before sizing, remeshing and the volume stage; 0: the
                             // machine's physical memory
+    // The input surface in memory (the library API), instead of the case's
+    // [input]: read as a surface file would be (mm, welded, every triangle
+    // used), its labels as a file's face labels (flat labelled caps become
+    // openings, open ends are cut flat). Not owned; must outlive the call.
+    const LabelledSurface* surface = nullptr;
 };
 
 // Runs the stages for `config`. Throws InputError, IoError or StageError.

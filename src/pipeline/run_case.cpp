@@ -100,7 +100,7 @@ nlohmann::json layers_json(const LayerAccount& a, const SurfaceMesh& surface, co
 
 std::vector<std::string> floor_warnings(const CaseConfig& config, const PipelineRun& run)
 {
-    std::vector<std::string> warnings;
+    std::vector<std::string> warnings = run.warnings; // the input's (units)
     if (!run.volume) return warnings;
     const VolumeResult& v = *run.volume;
     const LayerAccount& a = v.layers;
@@ -153,6 +153,31 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
     report["scalemesh_version"] = SCALEMESH_VERSION;
     report["input"] = {{"source", run.input}, {"checksum_fnv1a64", run.input_checksum}, {"voxel_width_mm", run.voxel_width}};
     if (run.inside_voxels >= 0) report["input"]["inside_voxels"] = run.inside_voxels;
+    if (!run.open_ends.empty()) {
+        nlohmann::json ends = nlohmann::json::array();
+        for (const OpenEnd& end : run.open_ends)
+            ends.push_back({{"centre_mm", {end.centre.x, end.centre.y, end.centre.z}},
+                            {"normal", {end.normal.x, end.normal.y, end.normal.z}},
+                            {"area_mm2", end.area},
+                            {"radius_mm", end.radius},
+                            {"loop_edges", end.loop.size()},
+                            {"max_distance_from_plane_mm", end.deviation},
+                            {"label", end.label}});
+        report["input"]["open_ends"] = ends;
+    }
+    if (!run.label_source.empty()) {
+        nlohmann::json labels = nlohmann::json::array();
+        for (const LabelPart& part : run.label_parts) {
+            nlohmann::json entry = {{"label", part.label},
+                                    {"triangles", part.triangles},
+                                    {"area_mm2", part.area},
+                                    {"role", part.cap ? "cap" : "wall"}};
+            if (const auto name = run.label_names.find(part.label); name != run.label_names.end())
+                entry["name"] = name->second;
+            labels.push_back(entry);
+        }
+        report["input"]["face_labels"] = {{"source", run.label_source}, {"labels", labels}};
+    }
     report["parameters"] = {{"K", config.K},
                             {"M", config.M},
                             {"G", config.G},
@@ -410,6 +435,7 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
             result.written.push_back(dir / "constant" / "polyMesh");
             result.written.push_back(dir / "system");
             if (result.flow_case) result.written.push_back(dir / "0");
+            result.written.push_back(dir / "Allrun");
         }
     }
 

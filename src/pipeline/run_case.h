@@ -20,9 +20,10 @@ struct CaseResult {
     std::vector<std::string> warnings;          // the run's floors it missed (floor_warnings)
 };
 
-// One sentence per floor of the case ([volume] min_layer_coverage,
-// min_aspect_ratio, min_dihedral_deg) that the volume mesh misses, with the
-// figure; empty when all are met or no volume mesh was built.
+// The run's warnings about its input (PipelineRun::warnings: an implausible
+// size for the declared unit), then one sentence per floor of the case
+// ([volume] min_layer_coverage, min_aspect_ratio, min_dihedral_deg) that the
+// volume mesh misses, with the figure; empty when there are none.
 std::vector<std::string> floor_warnings(const CaseConfig& config, const PipelineRun& run);
 
 // Throws InputError, IoError or StageError; a case that fails writes nothing.

@@ -1318,6 +1318,22 @@ OrthoCounts improve_orthogonality(TetMesh& mesh, int32_t surface_points, double 
                 continue;
             }
             const Tet first = ed.tet(t), second = ed.tet(u);
+            // A face whose corners are all pinned (surface nodes) may still
+            // be flipped away from the tets around its edges.
+            bool flipped = false;
+            Few<int32_t, 3> face;
+            for (int32_t v : first)
+                if (TetEditor::contains(second, v)) face.push_back(v);
+            for (int e = 0; e < 3 && !flipped && face.size() == 3; ++e)
+                for (int32_t w : ed.around_edge(face[e], face[(e + 1) % 3]))
+                    if (w != t && w != u && ed.alive(w) && flipper.improve_tet(w, flips)) {
+                        flipped = true;
+                        break;
+                    }
+            if (flipped) {
+                ++changed;
+                continue;
+            }
             for (const Tet& tet : {first, second})
                 for (int32_t v : tet)
                     if (!pinned[v] && orthogonalize_point(ed, v, size_t(v) < layers.size() ? layers[v] : LayerBound{}, floors))

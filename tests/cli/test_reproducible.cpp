@@ -46,14 +46,16 @@ void drop_measurements(nlohmann::json& j)
     }
 }
 
-// Every file under `dir` except the case file, by relative path. report.json
-// is kept without its times and peak memory, which differ between runs, and
-// without the thread count.
+// Every file under `dir` except the case file and the run's log (stage
+// times), by relative path. report.json is kept without its times and peak
+// memory, which differ between runs, and without the thread count.
 std::map<std::string, std::string> outputs(const std::filesystem::path& dir)
 {
     std::map<std::string, std::string> files;
     for (const auto& entry : std::filesystem::recursive_directory_iterator(dir)) {
-        if (!entry.is_regular_file() || entry.path().filename() == "scalemesh.toml") continue;
+        if (!entry.is_regular_file() || entry.path().filename() == "scalemesh.toml" ||
+            entry.path().filename() == "log.scalemesh")
+            continue;
         const std::string name = std::filesystem::relative(entry.path(), dir).string();
         std::string bytes = slurp(entry.path());
         if (name == "report.json") {

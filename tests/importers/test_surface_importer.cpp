@@ -250,11 +250,14 @@ TEST(SurfaceImporter, RefusesMalformedVtp)
         expect_input_error(p, vtp_text(with_index(quad_cube(), 8), f), "");
     }
     const std::string good = vtp_text(quad_cube(), VtpFormat::Binary32);
+    // Uncompressed data announced as compressed: the byte count is taken for a block count.
     expect_input_error(p, replace_first(good, "header_type=\"UInt32\"", "header_type=\"UInt32\" compressor=\"vtkZLibDataCompressor\""),
-                       "compressed");
-    expect_input_error(p, replace_first(replace_first(good, "format=\"binary\"", "format=\"appended\" offset=\"0\""),
+                       "compressed blocks");
+    // Appended points whose data end within their header (more in test_vtk_xml.cpp).
+    expect_input_error(p, replace_first(replace_first(good, "Name=\"Points\" NumberOfComponents=\"3\" format=\"binary\"",
+                                                      "Name=\"Points\" NumberOfComponents=\"3\" format=\"appended\" offset=\"0\""),
                                         "</PolyData>", "</PolyData>\n  <AppendedData encoding=\"base64\">_AAAA</AppendedData>"),
-                       "appended");
+                       "beyond the end of the file");
     const std::string points = "Name=\"Points\" NumberOfComponents=\"3\" format=\"binary\">\n          ";
     expect_input_error(p, replace_first(good, points, points + "!"), "not base64");
 }

@@ -11,8 +11,11 @@
 
 #include <gtest/gtest.h>
 
+#include <openvdb/openvdb.h>
+
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <numbers>
 
 namespace scalemesh {
@@ -189,6 +192,258 @@ TEST(CutAndCap, FlowExtensionAddsAStraightTubeOfTheCapsSection)
             for (int32_t v : extended.surface.triangles[f])
                 EXPECT_NEAR(extended.surface.points[v].z, 12 + length, 1e-9);
         }
+}
+
+// Item 5: the order of the openings does not matter, and planes may meet
+// outside their crossings. On the bifurcation, "left" cuts the left
+// daughter square to its axis 12 mm from the branch point; "right" is the
+// horizontal plane z = 11 with a radius picking the right daughter. The
+// horizontal plane also crosses the left daughter, through the left cap:
+// their infinite planes meet inside the left daughter's lumen, along the
+// line x = -4.94, z = 11 (1.2 mm from its axis, radius 1.5 mm).
+TEST(CutAndCap, OrderOfOpeningsDoesNotMatterWhenCrossingsAreApart)
+{
+    const SurfaceMesh bif = smoothed_phantom("bifurcation", 0.25);
+    const Vec3 left_axis = normalized(Vec3{-std::sin(kPi / 6), 0, std::cos(kPi / 6)});
+    const OpeningSpec inlet = plane_opening("inlet", OpeningType::Inlet, {0, 0, -12}, {0, 0, -1});
+    const OpeningSpec left = plane_opening("left", OpeningType::Outlet, 12.0 * left_axis, left_axis, 3.0);
+    const OpeningSpec right =
+        plane_opening("right", OpeningType::Outlet, {11 * std::tan(kPi / 6), 0, 11}, {0, 0, 1}, 3.0);
+    // The line where the two planes meet passes through the left daughter's lumen.
+    const Vec3 meet{-6 + std::cos(kPi / 6) * (11 - 12 * std::cos(kPi / 6)) / std::sin(kPi / 6), 0, 11};
+    EXPECT_NEAR(left.plane.signed_distance(meet), 0, 1e-9);
+    EXPECT_LT(norm(meet - dot(meet, left_axis) * left_axis), 1.5);
+    EXPECT_LT(dot(meet, left_axis), 12.99);
+
+    const std::vector<std::vector<OpeningSpec>> orders = {
+        {inlet, left, right}, {right, left, inlet}, {left, inlet, right}};
+    std::vector<CappedSurface> results;
+    for (const auto& order : orders) results.push_back(cut_and_cap(bif, order, {}));
+    const auto by_name = [](const CappedSurface& c) {
+        std::map<std::string, Cap> caps;
+        for (const Cap& cap : c.caps) caps[cap.name] = cap;
+        return caps;
+    };
+    const std::map<std::string, Cap> first = by_name(results[0]);
+    ASSERT_EQ(first.size(), 3u);
+    const SurfaceFacts facts = surface_facts(results[0].surface);
+    EXPECT_TRUE(facts.closed_manifold());
+    EXPECT_EQ(facts.components, 1);
+    EXPECT_EQ(facts.euler_characteristic, 2);
+    // Patches follow the order given.
+    for (size_t o = 0; o < orders.size(); ++o)
+        for (size_t i = 0; i < orders[o].size(); ++i) {
+            EXPECT_EQ(results[o].caps[i].name, orders[o][i].name);
+            EXPECT_EQ(results[o].caps[i].patch, static_cast<int32_t>(i) + 1);
+        }
+    for (size_t o = 1; o < results.size(); ++o) {
+        const std::map<std::string, Cap> other = by_name(results[o]);
+        ASSERT_EQ(other.size(), first.size());
+        for (const auto& [name, cap] : first) {
+            const Cap& c = other.at(name);
+            EXPECT_NEAR(c.area, cap.area, 1e-9 * cap.area) << name;
+            EXPECT_LT(distance(c.centroid, cap.centroid), 1e-9 * norm(cap.centroid)) << name;
+        }
+        const SurfaceFacts f = surface_facts(results[o].surface);
+        EXPECT_TRUE(f.closed_manifold());
+        EXPECT_EQ(f.vertices, facts.vertices);
+        EXPECT_EQ(f.triangles, facts.triangles);
+        EXPECT_EQ(f.components, facts.components);
+        EXPECT_EQ(f.euler_characteristic, facts.euler_characteristic);
+        EXPECT_NEAR(f.signed_volume, facts.signed_volume, 1e-9 * facts.signed_volume);
+        EXPECT_NEAR(f.area, facts.area, 1e-9 * facts.area);
+    }
+    // The caps are the daughters' cross-sections: a circle of radius 1.5 mm
+    // for the square cut, an ellipse 1.5 by 1.5 / cos 30 for the horizontal one.
+    EXPECT_NEAR(first.at("left").area, kPi * 2.25, 0.1 * kPi * 2.25);
+    EXPECT_NEAR(first.at("right").area, kPi * 2.25 / std::cos(kPi / 6), 0.1 * kPi * 2.25 / std::cos(kPi / 6));
+    EXPECT_LT(distance(first.at("right").centroid, right.plane.point), 0.2);
+}
+
+TEST(CutAndCap, OverlappingCrossingsAreRefusedNamingBoth)
+{
+    // Two planes through the same crossing of the tube: their caps would cross.
+    const SurfaceMesh tube = smoothed_phantom("tube", 0.5);
+    const OpeningSpec a = plane_opening("first", OpeningType::Inlet, {0, 0, -12}, {0, 0, -1});
+    const OpeningSpec b = plane_opening("second", OpeningType::Outlet, {0, 0, -12}, {0, 1, -1});
+    for (const auto& order : {std::vector<OpeningSpec>{a, b}, std::vector<OpeningSpec>{b, a}}) {
+        try {
+            cut_and_cap(tube, order, {});
+            FAIL() << "two openings whose crossings meet were accepted";
+        } catch (const InputError& e) {
+            const std::string what = e.what();
+            EXPECT_NE(what.find("'first'"), std::string::npos) << what;
+            EXPECT_NE(what.find("'second'"), std::string::npos) << what;
+            EXPECT_NE(what.find("meet"), std::string::npos) << what;
+        }
+    }
+    // One opening inside the part another removes: an outlet at z = 8 and a
+    // second one further out at z = 12 in the same vessel.
+    const OpeningSpec near = plane_opening("near", OpeningType::Outlet, {0, 0, 8}, {0, 0, 1});
+    const OpeningSpec far = plane_opening("far", OpeningType::Outlet, {0, 0, 12}, {0, 0, 1});
+    for (const auto& order : {std::vector<OpeningSpec>{near, far}, std::vector<OpeningSpec>{far, near}}) {
+        try {
+            cut_and_cap(tube, order, {});
+            FAIL() << "an opening inside the part another removes was accepted";
+        } catch (const InputError& e) {
+            const std::string what = e.what();
+            EXPECT_NE(what.find("opening 'far' lies in the part of the lumen that opening 'near' removes"),
+                      std::string::npos)
+                << what;
+        }
+    }
+}
+
+// Item 6: a mask that tapers over its last voxels before the image face.
+// Index space 0 .. size - 1 per axis, voxel width h = 0.5 mm, centres at
+// index * h. A bar along x (radius 5 voxels, y = 8, z = 8) runs from the x-
+// face to x = 41 and three tubes (radius 5 voxels) rise from it at x = 8,
+// 22 and 36. The first two reach the z+ face, narrowing over their last 3
+// voxels (radius x 0.8, 0.6, 0.45); the third stops 4 voxels short.
+constexpr double kComb_h = 0.5;
+constexpr int kCombSize[3] = {48, 17, 40};
+constexpr double kCombR = 5;       // voxels
+constexpr int kShortTop = 40 - 1 - 4; // last layer of the third tube
+
+openvdb::FloatGrid::Ptr comb_grid(bool taper)
+{
+    openvdb::initialize();
+    auto grid = openvdb::FloatGrid::create(0.0f);
+    grid->setTransform(openvdb::math::Transform::createLinearTransform(kComb_h));
+    grid->setName("label");
+    grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+    grid->insertMeta("image_size", openvdb::Vec3IMetadata(openvdb::Vec3i(kCombSize[0], kCombSize[1], kCombSize[2])));
+    auto access = grid->getAccessor();
+    const double yc = 8, zb = 8;
+    const double xs[3] = {8, 22, 36};
+    for (int i = 0; i < kCombSize[0]; ++i)
+        for (int j = 0; j < kCombSize[1]; ++j)
+            for (int k = 0; k < kCombSize[2]; ++k) {
+                bool inside = i <= 41 && std::hypot(j - yc, k - zb) < kCombR;
+                for (int n = 0; n < 3; ++n) {
+                    const int top = n == 2 ? kShortTop : kCombSize[2] - 1;
+                    const int from_face = kCombSize[2] - 1 - k;
+                    const double scale = !taper || n == 2 || from_face > 2 ? 1.0 : (from_face == 2 ? 0.8 : from_face == 1 ? 0.6 : 0.45);
+                    inside = inside || (k >= zb && k <= top && std::hypot(i - xs[n], j - yc) < kCombR * scale);
+                }
+                if (inside) access.setValue(openvdb::Coord(i, j, k), 1.0f);
+            }
+    return grid;
+}
+
+// The area of the mask's cross-section of one tube: its voxels in a layer, times h^2 (17.25 mm^2).
+double comb_section()
+{
+    int count = 0;
+    for (int i = -6; i <= 6; ++i)
+        for (int j = -6; j <= 6; ++j) count += std::hypot(i, j) < kCombR;
+    return count * kComb_h * kComb_h;
+}
+
+SurfaceMesh comb_surface(bool taper)
+{
+    SurfaceMesh mesh = marching_cubes(*comb_grid(taper));
+    smooth_volume_conserving(mesh, {.sweeps = 10, .omega = 1.0, .max_displacement = 0.5 * kComb_h});
+    return mesh;
+}
+
+ImageFrame comb_frame()
+{
+    ImageFrame frame;
+    for (int k = 0; k < 3; ++k) {
+        frame.axis[k] = Vec3{0, 0, 0};
+        frame.axis[k][k] = kComb_h;
+        frame.size[k] = kCombSize[k];
+    }
+    return frame;
+}
+
+OpeningSpec border_opening(const std::string& name, OpeningType type, const std::string& side)
+{
+    OpeningSpec spec;
+    spec.name = name;
+    spec.type = type;
+    spec.border = true;
+    spec.side = side;
+    return spec;
+}
+
+TEST(BorderOpenings, TaperingPiecesEachGetAFullCapAndAShortPieceIsReported)
+{
+    const SurfaceMesh comb = comb_surface(true);
+    const double full = comb_section();
+    const CappedSurface capped = cut_and_cap(
+        comb, {border_opening("inlet", OpeningType::Inlet, "x-"), border_opening("outlet", OpeningType::Outlet, "z+")},
+        comb_frame());
+    const SurfaceFacts facts = surface_facts(capped.surface);
+    EXPECT_TRUE(facts.closed_manifold());
+    EXPECT_EQ(facts.components, 1);
+    ASSERT_EQ(capped.caps.size(), 3u);
+    EXPECT_EQ(capped.caps[0].name, "inlet");
+    EXPECT_EQ(capped.caps[1].name, "outlet_1");
+    EXPECT_EQ(capped.caps[2].name, "outlet_2");
+    for (const Cap& cap : capped.caps) EXPECT_NEAR(cap.area, full, 0.06 * full) << cap.name;
+    // One outlet cap on each of the two tubes that reach the face, none on the third.
+    std::vector<double> xs = {capped.caps[1].centroid.x, capped.caps[2].centroid.x};
+    std::sort(xs.begin(), xs.end());
+    EXPECT_NEAR(xs[0], 8 * kComb_h, 0.1);
+    EXPECT_NEAR(xs[1], 22 * kComb_h, 0.1);
+
+    ASSERT_EQ(capped.borders.size(), 2u);
+    const BorderCut& outlet = capped.borders[1];
+    EXPECT_EQ(outlet.opening, "outlet");
+    EXPECT_TRUE(outlet.automatic && outlet.stable && outlet.face_known);
+    // Past the 3 tapering voxels, and not far past them.
+    EXPECT_GE(outlet.inset, 3 * kComb_h);
+    EXPECT_LE(outlet.inset, 5 * kComb_h);
+    ASSERT_EQ(outlet.short_pieces.size(), 1u);
+    // Its tip: the top of the last layer, (kShortTop + 1/2) h, moved by smoothing by at most half a voxel;
+    // the face is at (40 - 1/2) h.
+    EXPECT_NEAR(outlet.short_pieces[0].distance, 4 * kComb_h, 0.5 * kComb_h);
+    EXPECT_NEAR(outlet.short_pieces[0].tip.x, 36 * kComb_h, 5 * kComb_h);
+    EXPECT_TRUE(capped.borders[0].short_pieces.empty());
+    ASSERT_EQ(capped.warnings.size(), 1u);
+    EXPECT_NE(capped.warnings[0].find("opening 'outlet'"), std::string::npos) << capped.warnings[0];
+    EXPECT_NE(capped.warnings[0].find("short of the image face"), std::string::npos) << capped.warnings[0];
+    // The third tube stays, a dead end: the capped lumen still rises to its tip.
+    Vec3 lo, hi;
+    bounding_box(capped.surface, lo, hi);
+    EXPECT_GT(hi.z, (kShortTop + 0.5) * kComb_h - 0.5 * kComb_h);
+
+    // The old default, 2 voxels inside the outermost point, cuts inside the
+    // taper: the caps there are much smaller than the lumen.
+    OpeningSpec fixed = border_opening("outlet", OpeningType::Outlet, "z+");
+    fixed.inset = 2 * kComb_h;
+    const CappedSurface old = cut_and_cap(comb, {fixed}, comb_frame());
+    ASSERT_EQ(old.caps.size(), 2u);
+    for (const Cap& cap : old.caps) EXPECT_LT(cap.area, 0.75 * full) << cap.name;
+    EXPECT_FALSE(old.borders[0].automatic);
+    EXPECT_NEAR(old.borders[0].inset, 2 * kComb_h, 1e-12);
+}
+
+TEST(BorderOpenings, WithoutTaperTheAutomaticInsetStaysNearTheFace)
+{
+    const SurfaceMesh comb = comb_surface(false);
+    const double full = comb_section();
+    const CappedSurface capped =
+        cut_and_cap(comb, {border_opening("outlet", OpeningType::Outlet, "z+")}, comb_frame());
+    ASSERT_EQ(capped.caps.size(), 2u);
+    for (const Cap& cap : capped.caps) EXPECT_NEAR(cap.area, full, 0.06 * full) << cap.name;
+    EXPECT_LE(capped.borders[0].inset, 2 * kComb_h);
+    EXPECT_EQ(capped.borders[0].short_pieces.size(), 1u);
+}
+
+TEST(BorderOpenings, NoLumenAtTheSideIsRefused)
+{
+    const SurfaceMesh comb = comb_surface(true);
+    // The y+ face is at (17 - 1/2) h; the lumen reaches y = (8 + 5) h: 3.5 voxels short.
+    try {
+        cut_and_cap(comb, {border_opening("outlet", OpeningType::Outlet, "y+")}, comb_frame());
+        FAIL() << "a border opening on a side the lumen does not reach was accepted";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("no part of the lumen reaches the y+ side"), std::string::npos)
+            << e.what();
+    }
 }
 
 SizingParams tube_sizing()

@@ -1,0 +1,380 @@
+// The library face of scalemesh (include/scalemesh/mesh.h): a case made from
+// MeshOptions, run through run_pipeline, its mesh handed back as flat arrays.
+//
+// This file does not include scalemesh/scalemesh.h: the exceptions of
+// scalemesh/errors.h are those of core/errors.h (the installed copy of that
+// header), and one translation unit cannot see both copies.
+
+#include "scalemesh/mesh.h"
+
+#include "core/atomic_file.h"
+#include "core/errors.h"
+#include "core/surface_mesh.h"
+#include "pipeline/case_config.h"
+#include "pipeline/pipeline.h"
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <random>
+#include <unistd.h>
+
+namespace scalemesh {
+
+namespace {
+
+MeshLength public_length(const Length& l) { return {l.value, l.voxels}; }
+
+// A TOML float that reads back as exactly `v` (NaN and infinities too, which
+// the case reader then refuses with the key's name).
+std::string toml_number(double v)
+{
+    if (std::isnan(v)) return "nan";
+    if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+    std::array<char, 64> text;
+    const auto end = std::to_chars(text.data(), text.data() + text.size(), v).ptr;
+    std::string out(text.data(), end);
+    if (out.find_first_of(".e") == std::string::npos) out += ".0";
+    return out;
+}
+
+std::string toml_string(const std::string& s)
+{
+    std::string out = "\"";
+    for (char c : s) {
+        if (c == '"' || c == '\\') out += '\\';
+        out += c;
+    }
+    return out + "\"";
+}
+
+std::string toml_length(const MeshLength& l)
+{
+    if (!std::isfinite(l.value)) return toml_number(l.value); // refused as "not a length"
+    std::array<char, 64> text;
+    const auto end = std::to_chars(text.data(), text.data() + text.size(), l.value).ptr;
+    return toml_string(std::string(text.data(), end) + (l.voxels ? " voxels" : " mm"));
+}
+
+// The case a run through the library amounts to: the options written as the
+// case file's keys and read by the case reader, so that every value is
+// checked, and named, as in a scalemesh.toml.
+CaseConfig case_for(const std::filesystem::path& file, const MeshOptions& o, const ImageOptions& image)
+{
+    std::string text = "[input]\nfile = " + toml_string(file.string()) + "\n";
+    if (!image.grid.empty()) text += "grid = " + toml_string(image.grid) + "\n";
+    if (!image.labels.empty()) {
+        text += "labels = [";
+        for (size_t i = 0; i < image.labels.size(); ++i) text += (i ? ", " : "") + std::to_string(image.labels[i]);
+        text += "]\n";
+    }
+    if (image.threshold) text += "threshold = " + toml_number(*image.threshold) + "\n";
+    if (image.level_set) text += "level_set = true\n";
+    if (image.iso) text += "iso = " + toml_number(*image.iso) + "\n";
+    text += "connectivity = " + std::to_string(image.connectivity) + "\n";
+    if (image.units != "mm") text += "units = " + toml_string(image.units) + "\n";
+    text += "[smoothing]\nsweeps = " + std::to_string(o.smoothing_sweeps) + "\nomega = " + toml_number(o.smoothing_omega) +
+            "\nmax_displacement = " + toml_length(o.smoothing_reach) + "\n";
+    text += "[sizing]\nK = " + toml_number(o.K) + "\nM = " + toml_number(o.M) + "\nG = " + toml_number(o.G) +
+            "\nL_min = " + toml_length(o.L_min) + "\n";
+    if (o.L_max) text += "L_max = " + toml_length(*o.L_max) + "\n";
+    text += std::string("curvature = ") + (o.curvature ? "true" : "false") + "\n";
+    text += "[remeshing]\ncycles = " + std::to_string(o.remesh_cycles) + "\n";
+    text += "[volume]\ngrowth = " + toml_number(o.growth) + "\nfirst_layer = " + toml_string(o.first_layer) +
+            "\nlayer_tolerance = " + toml_number(o.layer_tolerance) + "\n";
+    text += "[run]\nthreads = " + std::to_string(o.threads) + "\n";
+    CaseConfig config = parse_case(text, ".", "mesh options");
+    if (config.remesh_cycles < 1)
+        throw InputError("mesh options: remesh_cycles = 0 builds no volume mesh", "give 1 to 100 cycles (default 3)");
+    if (o.max_memory < 0) throw InputError("mesh options: max_memory is negative", "give bytes, or 0 for no bound");
+    return config;
+}
+
+PipelineRun run_for_mesh(const CaseConfig& config, const MeshOptions& options)
+{
+    StageListener listener;
+    if (options.progress)
+        listener = [&](const StageTime& s) { options.progress(s.name, s.seconds, s.summary); };
+    return run_pipeline(config, {.sizing = true, .remesh = true, .volume = true, .max_memory = options.max_memory},
+                        listener);
+}
+
+MeshResult to_result(const PipelineRun& run, const CaseConfig& config)
+{
+    const TetMesh mesh = export_mesh(run, config.K, config.M);
+    MeshResult out;
+    const size_t n = mesh.points.size();
+    out.points.reserve(3 * n);
+    for (const Vec3& p : mesh.points) out.points.insert(out.points.end(), {p.x, p.y, p.z});
+    out.tets.reserve(4 * mesh.tets.size());
+    for (const Tet& t : mesh.tets)
+        for (int32_t v : t) out.tets.push_back(static_cast<size_t>(v));
+    out.surface_points = run.remeshed->surface.points.size();
+    out.boundary_triangles.reserve(3 * mesh.boundary_faces.size());
+    for (const Triangle& t : mesh.boundary_faces)
+        for (int32_t v : t) out.boundary_triangles.push_back(static_cast<size_t>(v));
+    out.boundary_patch = mesh.boundary_patch.empty() ? std::vector<int32_t>(mesh.boundary_faces.size(), 0)
+                                                     : mesh.boundary_patch;
+    out.patch_names = mesh.patch_names;
+
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    for (const VertexField& field : mesh.point_fields) {
+        std::vector<double>* target = field.name == "D"        ? &out.D
+                                      : field.name == "D_out"  ? &out.D_out
+                                      : field.name == "d"      ? &out.d
+                                      : field.name == "layers" ? &out.layers
+                                                               : nullptr;
+        if (!target) continue;
+        *target = field.values;
+        target->resize(n, nan); // the fields cover the surface nodes, the first points
+    }
+    out.point_layer = run.volume->point_layer;
+    for (const auto& [name, values] : mesh.tet_fields) {
+        if (name == "aspect_ratio") out.aspect_ratio = values;
+        if (name == "layer")
+            for (double v : values) out.tet_layer.push_back(static_cast<int32_t>(v));
+    }
+    return out;
+}
+
+// The input surface as a SurfaceMesh, checked: sizes, indices, coordinates,
+// labels, and closed and 2-manifold.
+SurfaceMesh checked_surface(const SurfaceInput& in)
+{
+    if (in.points.size() % 3 != 0)
+        throw InputError("the surface's points hold " + std::to_string(in.points.size()) +
+                             " numbers, not a multiple of 3",
+                         "give x, y, z per point, flat: 3N numbers");
+    if (in.triangles.size() % 3 != 0)
+        throw InputError("the surface's triangles hold " + std::to_string(in.triangles.size()) +
+                             " indices, not a multiple of 3",
+                         "give three 0-based point indices per triangle, flat: 3M indices");
+    if (in.triangles.empty()) throw InputError("the surface has no triangles", "give a closed triangulated surface");
+    const size_t n = in.points.size() / 3;
+    if (n > static_cast<size_t>(std::numeric_limits<int32_t>::max()))
+        throw InputError("the surface has " + std::to_string(n) + " points, more than scalemesh indexes",
+                         "give fewer than 2^31 points");
+    for (size_t i = 0; i < in.points.size(); ++i)
+        if (!std::isfinite(in.points[i]))
+            throw InputError("coordinate " + std::to_string(i % 3) + " of point " + std::to_string(i / 3) +
+                                 " of the surface is not a finite number",
+                             "remove NaN and infinite coordinates");
+    const size_t m = in.triangles.size() / 3;
+    if (!in.labels.empty() && in.labels.size() != m)
+        throw InputError("the surface has " + std::to_string(in.labels.size()) + " labels for " + std::to_string(m) +
+                             " triangles",
+                         "give one label per triangle, or none");
+    for (int32_t label : in.labels)
+        if (label < 0)
+            throw InputError("the surface has a negative label (" + std::to_string(label) + ")",
+                             "give labels 0, 1, 2, ...");
+    SurfaceMesh mesh;
+    mesh.points.reserve(n);
+    for (size_t i = 0; i < n; ++i) mesh.points.push_back({in.points[3 * i], in.points[3 * i + 1], in.points[3 * i + 2]});
+    mesh.triangles.reserve(m);
+    for (size_t t = 0; t < m; ++t) {
+        Triangle tri;
+        for (int k = 0; k < 3; ++k) {
+            const size_t v = in.triangles[3 * t + k];
+            if (v >= n)
+                throw InputError("triangle " + std::to_string(t) + " names point " + std::to_string(v) + " of " +
+                                     std::to_string(n),
+                                 "give 0-based indices below the point count");
+            tri[k] = static_cast<int32_t>(v);
+        }
+        mesh.triangles.push_back(tri);
+    }
+    require_closed_manifold(mesh, "the input surface");
+    return mesh;
+}
+
+// A scratch directory for the run's input file, removed with it.
+class ScratchDir {
+public:
+    ScratchDir()
+    {
+        std::random_device random;
+        path_ = std::filesystem::temp_directory_path() /
+                ("scalemesh-" + std::to_string(::getpid()) + "-" + std::to_string(random()) + std::to_string(random()));
+        std::error_code ec;
+        if (!std::filesystem::create_directory(path_, ec))
+            throw IoError(path_.string(), "cannot create a scratch directory" + (ec ? ": " + ec.message() : ""));
+    }
+    ~ScratchDir()
+    {
+        std::error_code ignored;
+        std::filesystem::remove_all(path_, ignored);
+    }
+    ScratchDir(const ScratchDir&) = delete;
+    ScratchDir& operator=(const ScratchDir&) = delete;
+    const std::filesystem::path& path() const { return path_; }
+
+private:
+    std::filesystem::path path_;
+};
+
+// Binary little-endian PLY with double coordinates: the pipeline's surface
+// reader takes it back bit for bit.
+void write_ply(const SurfaceMesh& mesh, const std::filesystem::path& path)
+{
+    static_assert(std::endian::native == std::endian::little, "the scratch PLY is written little-endian");
+    std::ofstream out(path, std::ios::binary);
+    out << "ply\nformat binary_little_endian 1.0\nelement vertex " << mesh.points.size()
+        << "\nproperty double x\nproperty double y\nproperty double z\nelement face " << mesh.triangles.size()
+        << "\nproperty list uchar int vertex_indices\nend_header\n";
+    for (const Vec3& p : mesh.points) {
+        const double xyz[3] = {p.x, p.y, p.z};
+        out.write(reinterpret_cast<const char*>(xyz), sizeof xyz);
+    }
+    for (const Triangle& t : mesh.triangles) {
+        const unsigned char three = 3;
+        out.write(reinterpret_cast<const char*>(&three), 1);
+        out.write(reinterpret_cast<const char*>(t.data()), sizeof(int32_t) * 3);
+    }
+    if (!out.flush()) throw IoError(path.string(), "cannot write the scratch copy of the input surface");
+}
+
+double point_triangle_distance2(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c)
+{
+    // Ericson, Real-Time Collision Detection, 5.1.5: the closest point by
+    // Voronoi regions of the triangle.
+    const Vec3 ab = b - a, ac = c - a, ap = p - a;
+    const double d1 = dot(ab, ap), d2 = dot(ac, ap);
+    if (d1 <= 0 && d2 <= 0) return norm2(ap);
+    const Vec3 bp = p - b;
+    const double d3 = dot(ab, bp), d4 = dot(ac, bp);
+    if (d3 >= 0 && d4 <= d3) return norm2(bp);
+    const double vc = d1 * d4 - d3 * d2;
+    if (vc <= 0 && d1 >= 0 && d3 <= 0) return norm2(ap - ab * (d1 / (d1 - d3)));
+    const Vec3 cp = p - c;
+    const double d5 = dot(ab, cp), d6 = dot(ac, cp);
+    if (d6 >= 0 && d5 <= d6) return norm2(cp);
+    const double vb = d5 * d2 - d1 * d6;
+    if (vb <= 0 && d2 >= 0 && d6 <= 0) return norm2(ap - ac * (d2 / (d2 - d6)));
+    const double va = d3 * d6 - d5 * d4;
+    if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) return norm2(bp - (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))));
+    const double denom = 1 / (va + vb + vc);
+    return norm2(ap - ab * (vb * denom) - ac * (vc * denom));
+}
+
+// The label of the input triangle nearest each boundary triangle's centroid,
+// found in a uniform grid of the input triangles' bounding boxes, searched in
+// growing shells until no nearer triangle can remain.
+std::vector<int32_t> nearest_labels(const SurfaceMesh& input, const std::vector<int32_t>& labels,
+                                    const MeshResult& mesh)
+{
+    Vec3 lo, hi;
+    bounding_box(input, lo, hi);
+    const Vec3 extent = hi - lo;
+    const double volume = std::max(extent.x, 1e-12) * std::max(extent.y, 1e-12) * std::max(extent.z, 1e-12);
+    // About two triangles per cell.
+    const double cell = std::max(std::cbrt(2 * volume / static_cast<double>(input.triangles.size())),
+                                 1e-9 * std::max({extent.x, extent.y, extent.z, 1.0}));
+    std::array<int64_t, 3> dims;
+    for (int k = 0; k < 3; ++k) dims[k] = std::max<int64_t>(1, static_cast<int64_t>(std::ceil(extent[k] / cell)));
+    const auto coord = [&](double x, int k) {
+        return std::clamp<int64_t>(static_cast<int64_t>(std::floor((x - lo[k]) / cell)), 0, dims[k] - 1);
+    };
+    const auto index = [&](int64_t i, int64_t j, int64_t k) { return (k * dims[1] + j) * dims[0] + i; };
+    std::vector<std::vector<int32_t>> cells(static_cast<size_t>(dims[0] * dims[1] * dims[2]));
+    for (size_t t = 0; t < input.triangles.size(); ++t) {
+        Vec3 tlo = input.points[input.triangles[t][0]], thi = tlo;
+        for (int32_t v : input.triangles[t])
+            for (int k = 0; k < 3; ++k) {
+                tlo[k] = std::min(tlo[k], input.points[v][k]);
+                thi[k] = std::max(thi[k], input.points[v][k]);
+            }
+        for (int64_t k = coord(tlo.z, 2); k <= coord(thi.z, 2); ++k)
+            for (int64_t j = coord(tlo.y, 1); j <= coord(thi.y, 1); ++j)
+                for (int64_t i = coord(tlo.x, 0); i <= coord(thi.x, 0); ++i)
+                    cells[index(i, j, k)].push_back(static_cast<int32_t>(t));
+    }
+    std::vector<int32_t> out(mesh.boundary_count());
+    for (size_t f = 0; f < out.size(); ++f) {
+        Vec3 centroid{0, 0, 0};
+        for (int c = 0; c < 3; ++c) {
+            const size_t v = mesh.boundary_triangles[3 * f + c];
+            centroid = centroid + Vec3{mesh.points[3 * v], mesh.points[3 * v + 1], mesh.points[3 * v + 2]} * (1.0 / 3);
+        }
+        const int64_t ci = coord(centroid.x, 0), cj = coord(centroid.y, 1), ck = coord(centroid.z, 2);
+        double best = std::numeric_limits<double>::infinity();
+        int32_t best_triangle = 0;
+        const int64_t max_shell = std::max({dims[0], dims[1], dims[2]});
+        for (int64_t r = 0; r <= max_shell; ++r) {
+            for (int64_t k = ck - r; k <= ck + r; ++k)
+                for (int64_t j = cj - r; j <= cj + r; ++j)
+                    for (int64_t i = ci - r; i <= ci + r; ++i) {
+                        if (std::max({std::abs(i - ci), std::abs(j - cj), std::abs(k - ck)}) != r) continue;
+                        if (i < 0 || j < 0 || k < 0 || i >= dims[0] || j >= dims[1] || k >= dims[2]) continue;
+                        for (int32_t t : cells[index(i, j, k)]) {
+                            const Triangle& tri = input.triangles[t];
+                            const double d2 = point_triangle_distance2(centroid, input.points[tri[0]],
+                                                                       input.points[tri[1]], input.points[tri[2]]);
+                            if (d2 < best || (d2 == best && t < best_triangle)) best = d2, best_triangle = t;
+                        }
+                    }
+            // Every triangle not yet seen lies outside the searched shells,
+            // at least r cells from the centroid's cell.
+            if (best <= (r * cell) * (r * cell)) break;
+        }
+        out[f] = labels[best_triangle];
+    }
+    return out;
+}
+
+} // namespace
+
+MeshOptions::MeshOptions()
+{
+    const CaseConfig defaults;
+    K = defaults.K;
+    M = defaults.M;
+    G = defaults.G;
+    L_min = public_length(defaults.L_min);
+    if (defaults.L_max) L_max = public_length(*defaults.L_max);
+    curvature = defaults.curvature;
+    smoothing_sweeps = defaults.smoothing.sweeps;
+    smoothing_omega = defaults.smoothing.omega;
+    smoothing_reach = public_length(defaults.smoothing_reach);
+    remesh_cycles = defaults.remesh_cycles;
+    growth = defaults.growth;
+    first_layer = defaults.first_layer == FirstLayer::edge ? "edge" : "paper";
+    layer_tolerance = defaults.layer_tolerance;
+    threads = defaults.threads;
+}
+
+MeshResult mesh_surface(const SurfaceInput& surface, const MeshOptions& options)
+{
+    const SurfaceMesh input = checked_surface(surface);
+    // run_pipeline reads surfaces from files; the scratch copy is exact
+    // (binary doubles) and removed when the run ends, however it ends.
+    const ScratchDir scratch;
+    const std::filesystem::path file = scratch.path() / "surface.ply";
+    write_ply(input, file);
+    const CaseConfig config = case_for(file, options, {});
+    PipelineRun run = run_for_mesh(config, options);
+    MeshResult result = to_result(run, config);
+    if (!surface.labels.empty()) {
+        result.boundary_patch = nearest_labels(input, surface.labels, result);
+        const int32_t top = *std::max_element(surface.labels.begin(), surface.labels.end());
+        result.patch_names.clear();
+        for (int32_t p = 0; p <= top; ++p)
+            result.patch_names.push_back(static_cast<size_t>(p) < surface.label_names.size() &&
+                                                 !surface.label_names[p].empty()
+                                             ? surface.label_names[p]
+                                             : "patch_" + std::to_string(p));
+    }
+    return result;
+}
+
+MeshResult mesh_image(const std::filesystem::path& path, const MeshOptions& options, const ImageOptions& image)
+{
+    const CaseConfig config = case_for(std::filesystem::absolute(path), options, image);
+    return to_result(run_for_mesh(config, options), config);
+}
+
+} // namespace scalemesh

@@ -1,0 +1,266 @@
+// The library face (include/scalemesh/): a phantom surface made here meshed
+// through mesh_surface and an image through mesh_image, checked for the facts
+// the volume stage guarantees, with nothing but the public header.
+
+#include "scalemesh/scalemesh.h"
+
+#include "support/temp_dir.h"
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <utility>
+
+namespace {
+
+using scalemesh::MeshResult;
+using scalemesh::SurfaceInput;
+
+// An icosphere of radius `r` (mm) around the origin, `levels` times
+// subdivided with the new points pushed onto the sphere; outward wound.
+SurfaceInput icosphere(double r, int levels)
+{
+    const double t = (1 + std::sqrt(5.0)) / 2;
+    std::vector<std::array<double, 3>> p = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
+                                            {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+    std::vector<std::array<size_t, 3>> f = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
+                                            {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
+                                            {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
+                                            {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
+    for (int level = 0; level < levels; ++level) {
+        std::map<std::pair<size_t, size_t>, size_t> middle;
+        const auto mid = [&](size_t a, size_t b) {
+            const auto key = std::minmax(a, b);
+            if (auto it = middle.find(key); it != middle.end()) return it->second;
+            p.push_back({(p[a][0] + p[b][0]) / 2, (p[a][1] + p[b][1]) / 2, (p[a][2] + p[b][2]) / 2});
+            return middle[key] = p.size() - 1;
+        };
+        std::vector<std::array<size_t, 3>> next;
+        for (const auto& [a, b, c] : f) {
+            const size_t ab = mid(a, b), bc = mid(b, c), ca = mid(c, a);
+            next.insert(next.end(), {{a, ab, ca}, {b, bc, ab}, {c, ca, bc}, {ab, bc, ca}});
+        }
+        f = std::move(next);
+    }
+    SurfaceInput s;
+    for (auto& q : p) {
+        const double n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
+        s.points.insert(s.points.end(), {r * q[0] / n, r * q[1] / n, r * q[2] / n});
+    }
+    for (const auto& tri : f) s.triangles.insert(s.triangles.end(), tri.begin(), tri.end());
+    return s;
+}
+
+std::array<double, 3> point(const MeshResult& m, size_t i)
+{
+    return {m.points[3 * i], m.points[3 * i + 1], m.points[3 * i + 2]};
+}
+
+double det(const std::array<double, 3>& a, const std::array<double, 3>& b, const std::array<double, 3>& c)
+{
+    return a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0]);
+}
+
+std::array<double, 3> minus(const std::array<double, 3>& a, const std::array<double, 3>& b)
+{
+    return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+}
+
+// The facts every mesh the library returns must have, whatever the input.
+void expect_valid_mesh(const MeshResult& m)
+{
+    const size_t n = m.point_count(), tets = m.tet_count(), faces = m.boundary_count();
+    ASSERT_EQ(m.points.size(), 3 * n);
+    ASSERT_EQ(m.tets.size(), 4 * tets);
+    ASSERT_EQ(m.boundary_triangles.size(), 3 * faces);
+    ASSERT_GT(tets, 0u);
+    ASSERT_GT(m.surface_points, 0u);
+    ASSERT_LT(m.surface_points, n);
+
+    // Positive tets whose volumes add up to the volume the boundary encloses.
+    double tet_volume = 0;
+    size_t nonpositive = 0;
+    for (size_t t = 0; t < tets; ++t) {
+        for (int k = 0; k < 4; ++k) ASSERT_LT(m.tets[4 * t + k], n);
+        const auto a = point(m, m.tets[4 * t]);
+        const double v = det(minus(point(m, m.tets[4 * t + 1]), a), minus(point(m, m.tets[4 * t + 2]), a),
+                             minus(point(m, m.tets[4 * t + 3]), a)) / 6;
+        nonpositive += v <= 0;
+        tet_volume += v;
+    }
+    EXPECT_EQ(nonpositive, 0u);
+    double enclosed = 0;
+    std::map<std::pair<size_t, size_t>, int> edges;
+    for (size_t f = 0; f < faces; ++f) {
+        const size_t* t = &m.boundary_triangles[3 * f];
+        for (int k = 0; k < 3; ++k) {
+            ASSERT_LT(t[k], m.surface_points) << "boundary triangles use the surface points only";
+            ++edges[{t[k], t[(k + 1) % 3]}];
+        }
+        enclosed += det(point(m, t[0]), point(m, t[1]), point(m, t[2])) / 6;
+    }
+    EXPECT_NEAR(tet_volume, enclosed, 1e-9 * enclosed);
+    // Closed and consistently oriented: each edge once each way.
+    for (const auto& [e, count] : edges) {
+        EXPECT_EQ(count, 1);
+        EXPECT_EQ(edges.count({e.second, e.first}), 1u);
+    }
+
+    // Fields: per point, per tet, per boundary triangle.
+    for (const std::vector<double>* field : {&m.D, &m.D_out, &m.d, &m.layers}) {
+        ASSERT_EQ(field->size(), n);
+        for (size_t i = 0; i < m.surface_points; ++i) EXPECT_FALSE(std::isnan((*field)[i]));
+        for (size_t i = m.surface_points; i < n; ++i) EXPECT_TRUE(std::isnan((*field)[i]));
+    }
+    for (size_t i = 0; i < m.surface_points; ++i) EXPECT_GT(m.d[i], 0);
+    ASSERT_EQ(m.point_layer.size(), n);
+    for (size_t i = 0; i < m.surface_points; ++i) EXPECT_EQ(m.point_layer[i], 0);
+    ASSERT_EQ(m.aspect_ratio.size(), tets);
+    ASSERT_EQ(m.tet_layer.size(), tets);
+    for (double q : m.aspect_ratio) {
+        EXPECT_GT(q, 0);
+        EXPECT_LE(q, 1 + 1e-12);
+    }
+    ASSERT_EQ(m.boundary_patch.size(), faces);
+    for (int32_t p : m.boundary_patch) {
+        ASSERT_GE(p, 0);
+        ASSERT_LT(static_cast<size_t>(p), m.patch_names.size());
+    }
+}
+
+double enclosed_volume(const std::vector<double>& x, const std::vector<size_t>& tri)
+{
+    double v = 0;
+    for (size_t f = 0; f < tri.size(); f += 3) {
+        const auto p = [&](size_t i) { return std::array<double, 3>{x[3 * i], x[3 * i + 1], x[3 * i + 2]}; };
+        v += det(p(tri[f]), p(tri[f + 1]), p(tri[f + 2])) / 6;
+    }
+    return v;
+}
+
+TEST(Api, MeshesAClosedSurfaceWithTheCaseFileDefaults)
+{
+    const SurfaceInput sphere = icosphere(5.0, 3);
+    scalemesh::MeshOptions options;
+    options.threads = 1;
+    // The run must not limit the process's parallelism (no tbb::global_control):
+    // looked at while it runs.
+    const size_t outside = tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);
+    std::vector<std::string> stages;
+    size_t during = 0;
+    options.progress = [&](const std::string& stage, double seconds, const std::string&) {
+        if (seconds >= 0) stages.push_back(stage);
+        during = tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);
+    };
+    const MeshResult m = scalemesh::mesh_surface(sphere, options);
+    expect_valid_mesh(m);
+    EXPECT_EQ(during, outside);
+    ASSERT_FALSE(stages.empty());
+    EXPECT_EQ(stages.front(), "import");
+    EXPECT_EQ(stages.back(), "volume");
+    EXPECT_EQ(m.patch_names, std::vector<std::string>{"wall"});
+    // Smoothing conserves the enclosed volume to round-off and remeshing
+    // gives back what it takes (remeshing/volume_give_back.h): the boundary
+    // triangles enclose the input's volume.
+    const double input_volume = enclosed_volume(sphere.points, sphere.triangles);
+    std::printf("%zu points (%zu on the surface), %zu tets, %zu boundary triangles; enclosed volume %.9g mm^3, "
+                "input %.9g mm^3\n",
+                m.point_count(), m.surface_points, m.tet_count(), m.boundary_count(),
+                enclosed_volume(m.points, m.boundary_triangles), input_volume);
+    EXPECT_NEAR(enclosed_volume(m.points, m.boundary_triangles), input_volume, 1e-9 * input_volume);
+    // M layers across: floor(M/2) = 3 at the wall for the default M = 7.
+    EXPECT_EQ(*std::max_element(m.layers.begin(), m.layers.begin() + m.surface_points), 3.0);
+}
+
+TEST(Api, DefaultsAreTheCaseFileDefaults)
+{
+    const scalemesh::MeshOptions o;
+    EXPECT_EQ(o.K, 4.2);
+    EXPECT_EQ(o.M, 7);
+    EXPECT_EQ(o.G, 0.85);
+    EXPECT_TRUE(o.L_min.voxels);
+    EXPECT_EQ(o.L_min.value, 0.5);
+    EXPECT_FALSE(o.L_max.has_value());
+    EXPECT_EQ(o.smoothing_sweeps, 10);
+    EXPECT_EQ(o.remesh_cycles, 3);
+    EXPECT_EQ(o.growth, 1.0);
+    EXPECT_EQ(o.first_layer, "edge");
+    EXPECT_EQ(o.threads, 0);
+}
+
+TEST(Api, LabelsBecomeBoundaryPatches)
+{
+    SurfaceInput sphere = icosphere(5.0, 3);
+    // Label 1 on triangles whose centroid lies above z = 0, else 0.
+    for (size_t f = 0; f < sphere.triangles.size(); f += 3) {
+        double z = 0;
+        for (int k = 0; k < 3; ++k) z += sphere.points[3 * sphere.triangles[f + k] + 2] / 3;
+        sphere.labels.push_back(z > 0 ? 1 : 0);
+    }
+    sphere.label_names = {"lower"};
+    const MeshResult m = scalemesh::mesh_surface(sphere, {});
+    expect_valid_mesh(m);
+    EXPECT_EQ(m.patch_names, (std::vector<std::string>{"lower", "patch_1"}));
+    // Away from the label border (input edges are about 0.6 mm long) each
+    // boundary triangle carries the label of the half it lies in.
+    size_t checked = 0;
+    for (size_t f = 0; f < m.boundary_count(); ++f) {
+        double z = 0;
+        for (int k = 0; k < 3; ++k) z += m.points[3 * m.boundary_triangles[3 * f + k] + 2] / 3;
+        if (std::abs(z) < 1.0) continue;
+        EXPECT_EQ(m.boundary_patch[f], z > 0 ? 1 : 0) << "triangle " << f << " at z = " << z;
+        ++checked;
+    }
+    EXPECT_GT(checked, m.boundary_count() / 2);
+}
+
+TEST(Api, BadInputThrowsInputErrorSayingWhat)
+{
+    const SurfaceInput sphere = icosphere(5.0, 1);
+    SurfaceInput bad_index = sphere;
+    bad_index.triangles[4] = sphere.points.size(); // past the last point
+    EXPECT_THROW(scalemesh::mesh_surface(bad_index), scalemesh::InputError);
+    SurfaceInput open = sphere;
+    open.triangles.resize(open.triangles.size() - 3);
+    try {
+        scalemesh::mesh_surface(open);
+        ADD_FAILURE() << "an open surface was meshed";
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(dynamic_cast<const scalemesh::InputError*>(&e), nullptr) << e.what();
+        EXPECT_NE(std::string(e.what()).find("input surface"), std::string::npos) << e.what();
+    }
+    SurfaceInput ragged = sphere;
+    ragged.points.pop_back();
+    EXPECT_THROW(scalemesh::mesh_surface(ragged), scalemesh::InputError);
+    SurfaceInput short_labels = sphere;
+    short_labels.labels = {0, 1};
+    EXPECT_THROW(scalemesh::mesh_surface(short_labels), scalemesh::InputError);
+    scalemesh::MeshOptions bad;
+    bad.K = -1;
+    try {
+        scalemesh::mesh_surface(sphere, bad);
+        ADD_FAILURE() << "K = -1 was accepted";
+    } catch (const scalemesh::InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("K"), std::string::npos) << e.what();
+    }
+    EXPECT_THROW(scalemesh::mesh_image("/nonexistent/image.vdb"), scalemesh::Error);
+}
+
+TEST(Api, MeshesAnImage)
+{
+    const scalemesh::TempDir dir;
+    const std::string image = (dir.path / "sphere.vdb").string();
+    const char* binary = std::getenv("SCALEMESH_BINARY");
+    ASSERT_NE(binary, nullptr) << "run the tests through ctest";
+    ASSERT_EQ(std::system((std::string(binary) + " phantom sphere --voxel-size 1 -o '" + image + "'").c_str()), 0);
+    const MeshResult m = scalemesh::mesh_image(image);
+    expect_valid_mesh(m);
+}
+
+} // namespace
