@@ -47,7 +47,7 @@ private:
 // A flip replaces old tets by new ones on the same polyhedron; the criterion
 // decides from their volumes, aspect ratios or face non-orthogonality
 // whether it is worth it.
-enum class Criterion { volume, quality, orthogonality };
+enum class Criterion { volume, quality, orthogonality, dihedral };
 
 // The tets as a mutable set with vertex-to-tet lists (dead entries are
 // skipped and dropped lazily), enough for local flips and point moves.
@@ -278,6 +278,7 @@ double worst_cosine(const TetEditor& ed, const Tets& tets, const std::vector<Fac
 struct OrthoFloors {
     double aspect = 0.1;   // dimensionless
     double dihedral = 10;  // degrees
+    double ortho = 70;     // degrees: a change for the dihedral angles leaves no new face beyond it
 };
 
 struct Shape {
@@ -305,6 +306,17 @@ bool ortho_better(const Shape& before, const Shape& after, const OrthoFloors& fl
     return after.aspect > 0 && after.cosine > before.cosine + 1e-9 &&
            after.aspect >= std::min(before.aspect, floors.aspect) &&
            after.dihedral >= std::min(before.dihedral, floors.dihedral);
+}
+
+// Whether `after` has a larger smallest dihedral angle than `before` and
+// keeps the aspect-ratio floor and the non-orthogonality bound (or the old
+// tets' own, where those already miss them).
+bool dihedral_better(const Shape& before, const Shape& after, const OrthoFloors& floors)
+{
+    const double bound = std::cos(floors.ortho * M_PI / 180);
+    return after.aspect > 0 && after.dihedral > before.dihedral + 1e-6 &&
+           after.aspect >= std::min(before.aspect, floors.aspect) &&
+           after.cosine >= std::min(before.cosine, bound) - 1e-12;
 }
 
 class Flipper {
@@ -347,6 +359,9 @@ private:
             for (const Tet& t : old_tets) old_min = std::min(old_min, ed_.volume6(t));
             return new_min > 3.0 * old_min;
         }
+        if (criterion_ == Criterion::dihedral)
+            return dihedral_better(shape_of(ed_, old_tets, face_links(ed_, old_tets, old)),
+                                   shape_of(ed_, fresh, face_links(ed_, fresh, old)), floors_);
         if (criterion_ == Criterion::orthogonality)
             return ortho_better(shape_of(ed_, old_tets, face_links(ed_, old_tets, old)),
                                 shape_of(ed_, fresh, face_links(ed_, fresh, old)), floors_);
@@ -1340,6 +1355,209 @@ OrthoCounts improve_orthogonality(TetMesh& mesh, int32_t surface_points, double 
                         ++counts.moves, ++changed;
         }
         if (changed == 0) break;
+    }
+    counts.flips = flips.flips_23 + flips.flips_32 + flips.flips_44;
+    ed.commit();
+    return counts;
+}
+
+} // namespace scalemesh
+
+namespace scalemesh {
+namespace {
+
+double star_dihedral(TetEditor& ed, const std::vector<Tet>& tets)
+{
+    double worst = 1e300;
+    for (const Tet& t : tets)
+        worst = std::min(worst, tet_min_dihedral_deg(ed.point(t[0]), ed.point(t[1]), ed.point(t[2]), ed.point(t[3])));
+    return worst;
+}
+
+// Moves interior point v to raise the smallest dihedral angle of its star
+// (in the spirit of Freitag and Ollivier-Gooch's optimisation-based
+// smoothing: the worst angle is a max-min objective, climbed along the
+// gradient of the worst tet's angle and along the mean of the gradients of
+// the tets within a degree of it, with a line search), a layer point within
+// its ball. Accepted on dihedral_better; repeated while it gains.
+bool raise_point_dihedral(TetEditor& ed, int32_t v, const LayerBound& layer, const OrthoFloors& floors)
+{
+    const std::vector<int32_t> star = ed.at(v);
+    std::vector<Tet> tets;
+    for (int32_t t : star) tets.push_back(ed.tet(t));
+    const Vec3 origin = ed.point(v);
+    const std::vector<FaceLink> links = face_links(ed, tets, star);
+    const auto shape_at = [&](const Vec3& x) {
+        ed.point(v) = x;
+        return shape_of(ed, tets, links);
+    };
+    double mean_length = 0;
+    int edges = 0;
+    Vec3 centroid;
+    for (const Tet& t : tets)
+        for (int32_t w : t)
+            if (w != v) mean_length += distance(origin, ed.point(w)), centroid += ed.point(w), ++edges;
+    if (edges == 0) return false;
+    mean_length /= edges;
+    centroid /= edges;
+    const double h = 1e-4 * mean_length;
+    const auto in_ball = [&](const Vec3& x) { return within_layer(layer, x); };
+
+    Vec3 position = origin;
+    Shape best = shape_at(origin);
+    if (!(best.aspect > 0)) {
+        ed.point(v) = origin;
+        return false;
+    }
+    for (int iteration = 0; iteration < 4; ++iteration) {
+        ed.point(v) = position;
+        // The tets within a degree of the worst angle: the active set.
+        std::vector<Tet> active;
+        for (const Tet& t : tets)
+            if (tet_min_dihedral_deg(ed.point(t[0]), ed.point(t[1]), ed.point(t[2]), ed.point(t[3])) < best.dihedral + 1)
+                active.push_back(t);
+        std::vector<Vec3> directions;
+        Vec3 mean;
+        for (const Tet& t : active) {
+            const std::vector<Tet> one{t};
+            const Vec3 g = normalized(point_gradient(ed, v, h, [&] { return star_dihedral(ed, one); }));
+            if (directions.empty()) directions.push_back(g);
+            mean += g;
+        }
+        if (active.size() > 1 && norm2(mean) > 0) directions.push_back(normalized(mean));
+        std::vector<Vec3> candidates;
+        for (const Vec3& d : directions)
+            if (norm2(d) > 0)
+                for (double step : {0.2, 0.1, 0.05, 0.025, 0.0125, 0.006, 0.003})
+                    candidates.push_back(in_ball(position + step * mean_length * d));
+        for (double w : {1.0, 0.5, 0.25}) candidates.push_back(in_ball(position + w * (centroid - position)));
+        bool gained = false;
+        Vec3 next = position;
+        for (const Vec3& x : candidates) {
+            const Shape s = shape_at(x);
+            if (dihedral_better(best, s, floors)) best = s, next = x, gained = true;
+        }
+        position = next;
+        if (!gained) break;
+    }
+    ed.point(v) = position;
+    return !(position == origin);
+}
+
+// Splits the interior edge (q, s) by a new free point m where the smallest
+// dihedral angle of the new tets is best, when that beats the old tets'
+// (dihedral_better); then m is smoothed. Never used on a surface edge.
+bool split_edge_for_dihedral(TetEditor& ed, int32_t q, int32_t s, const OrthoFloors& floors)
+{
+    const std::vector<int32_t> around = ed.around_edge(q, s);
+    if (around.empty()) return false;
+    std::vector<Tet> old;
+    for (int32_t t : around) old.push_back(ed.tet(t));
+    const Shape before = shape_of(ed, old, face_links(ed, old, around));
+    Vec3 centroid;
+    int count = 0;
+    for (const Tet& t : old)
+        for (int32_t v : t)
+            if (v != q && v != s) centroid += ed.point(v), ++count;
+    centroid /= count;
+    const Vec3 mid = 0.5 * (ed.point(q) + ed.point(s));
+    const int32_t m = ed.add_point(mid);
+    const std::vector<Tet> fresh = split_at(ed, around, q, s, m);
+    const std::vector<FaceLink> links = face_links(ed, fresh, around);
+    Shape best = before;
+    Vec3 best_position;
+    bool found = false;
+    for (double along : {0.5, 0.35, 0.65})
+        for (double w : {0.0, 0.05, 0.1, 0.2, 0.3, 0.4}) {
+            ed.point(m) = (1 - w) * ((1 - along) * ed.point(q) + along * ed.point(s)) + w * centroid;
+            const Shape now = shape_of(ed, fresh, links);
+            if (dihedral_better(best, now, floors)) best = now, best_position = ed.point(m), found = true;
+        }
+    if (!found) {
+        ed.drop_last_point();
+        return false;
+    }
+    ed.point(m) = best_position;
+    ed.replace(around, fresh);
+    raise_point_dihedral(ed, m, {}, floors);
+    return true;
+}
+
+} // namespace
+
+DihedralCounts raise_dihedral_angles(TetMesh& mesh, int32_t surface_points, double target_deg, int sweeps,
+                                     const std::vector<LayerBound>& layers)
+{
+    DihedralCounts counts;
+    TetEditor ed(mesh);
+    const OrthoFloors floors;
+    Flipper flipper(ed, Criterion::dihedral, floors);
+    FlipCounts flips;
+    const size_t original_points = ed.point_count();
+    std::vector<char> pinned(original_points, 0);
+    for (size_t v = 0; v < pinned.size(); ++v) {
+        const bool layer = v < layers.size() && layers[v].slack > 0;
+        pinned[v] = int32_t(v) < surface_points ||
+                    (layer && distance(ed.point(int32_t(v)), layers[v].home) > layers[v].slack);
+    }
+    const auto is_pinned = [&](int32_t v) { return size_t(v) < pinned.size() && pinned[v]; };
+    const auto dihedral = [&](int32_t t) {
+        const Tet& x = ed.tet(t);
+        return tet_min_dihedral_deg(ed.point(x[0]), ed.point(x[1]), ed.point(x[2]), ed.point(x[3]));
+    };
+    const auto poor_tets = [&] {
+        std::vector<int32_t> poor;
+        for (size_t i = 0; i < ed.size(); ++i)
+            if (ed.alive(int32_t(i)) && dihedral(int32_t(i)) < target_deg) poor.push_back(int32_t(i));
+        return poor;
+    };
+    // Flips at the tet, then at the tets around its edges, then moves of its
+    // free points; true when something changed.
+    const auto improve = [&](int32_t t) {
+        if (flipper.improve_tet(t, flips)) return true;
+        const Tet tet = ed.tet(t);
+        bool changed = false;
+        for (int i = 0; i < 4; ++i)
+            for (int j = i + 1; j < 4; ++j)
+                for (int32_t w : ed.around_edge(tet[i], tet[j]))
+                    if (w != t && ed.alive(w) && flipper.improve_tet(w, flips)) {
+                        changed = true;
+                        if (!ed.alive(t)) return true;
+                    }
+        for (int32_t v : tet)
+            if (ed.alive(t) && !is_pinned(v) &&
+                raise_point_dihedral(ed, v, size_t(v) < layers.size() ? layers[v] : LayerBound{}, floors))
+                ++counts.moves, changed = true;
+        return changed;
+    };
+    for (int sweep = 0; sweep < sweeps; ++sweep) {
+        const std::vector<int32_t> poor = poor_tets();
+        if (sweep == 0) counts.tets_before = static_cast<int64_t>(poor.size());
+        int64_t changed = 0;
+        for (int32_t t : poor)
+            if (ed.alive(t) && dihedral(t) < target_deg && improve(t)) ++changed;
+        if (changed == 0) break;
+    }
+    // Last resort: a new free point on one of the tet's interior edges.
+    const EdgeSet surface_edges = edge_set(mesh.boundary_faces);
+    for (int round = 0; round < 2; ++round) {
+        int64_t splits = 0;
+        for (int32_t t : poor_tets()) {
+            if (!ed.alive(t) || !(dihedral(t) < target_deg)) continue;
+            const Tet tet = ed.tet(t);
+            for (int i = 0; i < 4 && ed.alive(t); ++i)
+                for (int j = i + 1; j < 4 && ed.alive(t); ++j)
+                    if (!surface_edges.count(edge_key(tet[i], tet[j])) && split_edge_for_dihedral(ed, tet[i], tet[j], floors))
+                        ++splits;
+        }
+        counts.splits += splits;
+        if (splits == 0) break;
+        for (int sweep = 0; sweep < sweeps; ++sweep) {
+            int64_t changed = 0;
+            for (int32_t t : poor_tets())
+                if (ed.alive(t) && dihedral(t) < target_deg && improve(t)) ++changed;
+            if (changed == 0) break;
+        }
     }
     counts.flips = flips.flips_23 + flips.flips_32 + flips.flips_44;
     ed.commit();

@@ -135,4 +135,25 @@ struct OrthoCounts {
 OrthoCounts improve_orthogonality(TetMesh& mesh, int32_t surface_points, double max_angle_deg, int sweeps,
                                   const std::vector<LayerBound>& layers = {});
 
+struct DihedralCounts {
+    int64_t tets_before = 0; // tets below the target at the start
+    int64_t flips = 0, moves = 0, splits = 0;
+};
+
+// Raises the smallest dihedral angle of the tets below `target_deg`
+// (degrees): for at most `sweeps` rounds, each such tet gets a flip (2-3,
+// 3-2, 4-4) at it, else at one of the tets around its edges, else moves of
+// its interior points (an optimisation of the worst dihedral angle of the
+// point's star, a layer point within layers[v].slack of layers[v].home); a
+// change is kept when it raises the smallest dihedral angle of the tets it
+// replaces and leaves no new tet below aspect ratio 0.1 or face beyond 70
+// degrees of non-orthogonality (or the old tets' own, where those already
+// miss them). Then a tet still below gets one of its interior edges split
+// by a new free point under the same rule, twice at most. Surface points
+// never move and no surface edge is split: the boundary is bit-identical
+// (mesh.boundary_faces must hold it). Serial: the same result on any number
+// of threads.
+DihedralCounts raise_dihedral_angles(TetMesh& mesh, int32_t surface_points, double target_deg, int sweeps,
+                                     const std::vector<LayerBound>& layers = {});
+
 } // namespace scalemesh

@@ -117,6 +117,50 @@ void attribute_new_points(VolumeResult& result, int32_t n)
     }
 }
 
+// The layer bounds `layers` with the stand-ins held: a layer point (bound
+// by layers[p]) within `tolerance` of its spacing of the place of a
+// layermaking point of its layer that the interior-point filter took out
+// (a raw point missing from `kept`) stands in for that node's point (the
+// layer account). Such a point gets a ball about where it is now, inside its
+// own ball and every such place's, so a move keeps both; a zero radius is
+// kept as a tiny one, since a zero slack would free the point.
+std::vector<LayerBound> hold_stand_ins(const TetMesh& mesh, int32_t n, const std::vector<OffsetPoint>& raw,
+                                       const std::vector<OffsetPoint>& kept, const std::vector<int32_t>& source,
+                                       const std::vector<LayerBound>& layers, double tolerance)
+{
+    struct Place {
+        Vec3 x;
+        double radius; // mm
+        int32_t layer;
+    };
+    std::vector<Place> filtered;
+    size_t k = 0;
+    for (const OffsetPoint& p : raw) {
+        const bool survived = k < kept.size() && kept[k].generator == p.generator && kept[k].layer == p.layer;
+        if (!survived && !p.filler) filtered.push_back({p.position, tolerance * p.spacing, p.layer});
+        k += survived;
+    }
+    std::vector<LayerBound> held = layers;
+    if (filtered.empty()) return held;
+    std::sort(filtered.begin(), filtered.end(), [](const Place& a, const Place& b) { return a.x.x < b.x.x; });
+    double widest = 0;
+    for (const Place& f : filtered) widest = std::max(widest, f.radius);
+    for (size_t p = n; p < source.size() && p < layers.size(); ++p) {
+        if (!(layers[p].slack > 0)) continue;
+        const Vec3& x = mesh.points[p];
+        const int32_t layer = kept[source[p] - n].layer;
+        double room = layers[p].slack - distance(x, layers[p].home);
+        bool serves = false;
+        auto f = std::lower_bound(filtered.begin(), filtered.end(), x.x - widest,
+                                  [](const Place& a, double v) { return a.x.x < v; });
+        for (; f != filtered.end() && f->x.x <= x.x + widest; ++f)
+            if (f->layer == layer && distance(f->x, x) <= f->radius)
+                serves = true, room = std::min(room, f->radius - distance(f->x, x));
+        if (serves) held[p] = {x, layers[p].normal, std::max(room, 1e-12 * layers[p].slack)};
+    }
+    return held;
+}
+
 } // namespace
 
 std::vector<int32_t> topology_check_failures(const TetMesh& mesh, int32_t surface_points)
@@ -346,12 +390,27 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
             const SliverCounts more = remove_slivers(mesh, n, params.sliver_aspect_ratio, params.sliver_sweeps, layers);
             result.sliver_flips += more.flips, result.sliver_moves += more.moves;
         }
+        // The passes below also keep the stand-ins (layer_account.h): a
+        // layer point within the tolerance of the place of a point the
+        // interior-point filter took out keeps its layer there for that
+        // node, so it stays in a ball inside both tolerances.
+        const std::vector<LayerBound> held = hold_stand_ins(mesh, n, raw, points, ins.source, layers, params.layer_tolerance);
+        // A finite-volume solver also wants no tet flatter than a dihedral
+        // angle of 10 degrees: flips, moves and interior-edge splits for the
+        // tets below kDihedralTarget, before and after the orthogonality pass
+        // (each keeps what the other has reached).
+        constexpr double kDihedralTarget = 12.0; // degrees, a margin over 10
+        const DihedralCounts dihedral = raise_dihedral_angles(mesh, n, kDihedralTarget, 8, held);
+        result.dihedral_tets_before = dihedral.tets_before;
         // OpenFOAM's solvers want face non-orthogonality below 70 degrees:
         // flips and moves for the faces beyond 65, keeping the quality floors
         // and the layers' balls.
-        const OrthoCounts ortho = improve_orthogonality(mesh, n, 65.0, 12, layers);
+        const OrthoCounts ortho = improve_orthogonality(mesh, n, 65.0, 12, held);
         result.ortho_faces_before = ortho.faces_before;
         result.ortho_flips = ortho.flips, result.ortho_moves = ortho.moves;
+        const DihedralCounts again = raise_dihedral_angles(mesh, n, kDihedralTarget, 8, held);
+        result.dihedral_flips = dihedral.flips + again.flips, result.dihedral_moves = dihedral.moves + again.moves;
+        result.dihedral_splits = dihedral.splits + again.splits;
         attribute_new_points(result, n);
         result.seconds_slivers = seconds_since(t0);
         t0 = Clock::now();
