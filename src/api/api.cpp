@@ -7,7 +7,6 @@
 
 #include "scalemesh/mesh.h"
 
-#include "core/atomic_file.h"
 #include "core/errors.h"
 #include "core/surface_mesh.h"
 #include "pipeline/case_config.h"
@@ -15,13 +14,9 @@
 
 #include <algorithm>
 #include <array>
-#include <bit>
 #include <charconv>
 #include <cmath>
-#include <fstream>
 #include <limits>
-#include <random>
-#include <unistd.h>
 
 namespace scalemesh {
 
@@ -94,12 +89,19 @@ CaseConfig case_for(const std::filesystem::path& file, const MeshOptions& o, con
     return config;
 }
 
-PipelineRun run_for_mesh(const CaseConfig& config, const MeshOptions& options)
+// `surface`: the input in memory, instead of the case's [input] file.
+PipelineRun run_for_mesh(const CaseConfig& config, const MeshOptions& options,
+                         const LabelledSurface* surface = nullptr)
 {
     StageListener listener;
     if (options.progress)
         listener = [&](const StageTime& s) { options.progress(s.name, s.seconds, s.summary); };
-    return run_pipeline(config, {.sizing = true, .remesh = true, .volume = true, .max_memory = options.max_memory},
+    return run_pipeline(config,
+                        {.sizing = true,
+                         .remesh = true,
+                         .volume = true,
+                         .max_memory = options.max_memory,
+                         .surface = surface},
                         listener);
 }
 
@@ -190,52 +192,6 @@ SurfaceMesh checked_surface(const SurfaceInput& in)
     }
     require_closed_manifold(mesh, "the input surface");
     return mesh;
-}
-
-// A scratch directory for the run's input file, removed with it.
-class ScratchDir {
-public:
-    ScratchDir()
-    {
-        std::random_device random;
-        path_ = std::filesystem::temp_directory_path() /
-                ("scalemesh-" + std::to_string(::getpid()) + "-" + std::to_string(random()) + std::to_string(random()));
-        std::error_code ec;
-        if (!std::filesystem::create_directory(path_, ec))
-            throw IoError(path_.string(), "cannot create a scratch directory" + (ec ? ": " + ec.message() : ""));
-    }
-    ~ScratchDir()
-    {
-        std::error_code ignored;
-        std::filesystem::remove_all(path_, ignored);
-    }
-    ScratchDir(const ScratchDir&) = delete;
-    ScratchDir& operator=(const ScratchDir&) = delete;
-    const std::filesystem::path& path() const { return path_; }
-
-private:
-    std::filesystem::path path_;
-};
-
-// Binary little-endian PLY with double coordinates: the pipeline's surface
-// reader takes it back bit for bit.
-void write_ply(const SurfaceMesh& mesh, const std::filesystem::path& path)
-{
-    static_assert(std::endian::native == std::endian::little, "the scratch PLY is written little-endian");
-    std::ofstream out(path, std::ios::binary);
-    out << "ply\nformat binary_little_endian 1.0\nelement vertex " << mesh.points.size()
-        << "\nproperty double x\nproperty double y\nproperty double z\nelement face " << mesh.triangles.size()
-        << "\nproperty list uchar int vertex_indices\nend_header\n";
-    for (const Vec3& p : mesh.points) {
-        const double xyz[3] = {p.x, p.y, p.z};
-        out.write(reinterpret_cast<const char*>(xyz), sizeof xyz);
-    }
-    for (const Triangle& t : mesh.triangles) {
-        const unsigned char three = 3;
-        out.write(reinterpret_cast<const char*>(&three), 1);
-        out.write(reinterpret_cast<const char*>(t.data()), sizeof(int32_t) * 3);
-    }
-    if (!out.flush()) throw IoError(path.string(), "cannot write the scratch copy of the input surface");
 }
 
 double point_triangle_distance2(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c)
@@ -350,13 +306,11 @@ MeshOptions::MeshOptions()
 MeshResult mesh_surface(const SurfaceInput& surface, const MeshOptions& options)
 {
     const SurfaceMesh input = checked_surface(surface);
-    // run_pipeline reads surfaces from files; the scratch copy is exact
-    // (binary doubles) and removed when the run ends, however it ends.
-    const ScratchDir scratch;
-    const std::filesystem::path file = scratch.path() / "surface.ply";
-    write_ply(input, file);
-    const CaseConfig config = case_for(file, options, {});
-    PipelineRun run = run_for_mesh(config, options);
+    // The case's [input] file is never read: run_pipeline takes the surface
+    // in memory (the name only makes the case a surface case).
+    const CaseConfig config = case_for("surface-in-memory.ply", options, {});
+    const LabelledSurface given{input, {}};
+    PipelineRun run = run_for_mesh(config, options, &given);
     MeshResult result = to_result(run, config);
     if (!surface.labels.empty()) {
         result.boundary_patch = nearest_labels(input, surface.labels, result);
