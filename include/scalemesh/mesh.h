@@ -134,10 +134,16 @@ struct MeshResult {
 // closed and 2-manifold; StageError when a stage fails.
 MeshResult mesh_surface(const SurfaceInput& surface, const MeshOptions& options = {});
 
-// Meshes an image (.vdb, .nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd) or a closed
-// surface file (.stl, .ply, .obj, .vtp, .msh), as `scalemesh run` does a case
-// with `file = path`. Throws IoError for a file that cannot be read,
-// InputError and StageError as mesh_surface.
+// Meshes an image (.vdb, .nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd, .vti) or a
+// surface file (.stl, .ply, .obj, .vtp, .msh; closed or open-ended, with face
+// labels), as `scalemesh run` does a case with `file = path`. Throws IoError
+// for a file that cannot be read, InputError and StageError as mesh_surface.
+// Two process-wide effects remain on this path: a .msh file is read through
+// a Gmsh session of the library's own (gmsh::initialize and finalize), so do
+// not call it on a .msh while the host has Gmsh initialised (use
+// mesh_gmsh_model, gmsh_model.h, on a model the host merged instead); and a
+// MetaImage read swaps std::cerr's buffer while ITK's MetaIO reads (it
+// reports truncated compressed data only there), under the importers' lock.
 MeshResult mesh_image(const std::filesystem::path& path, const MeshOptions& options = {},
                       const ImageOptions& image = {});
 
