@@ -82,6 +82,10 @@ case "${1:-run}" in
     # against an isotropic Gmsh tet mesh at matched cell counts (simpleFoam,
     # wallShearStress, Hagen-Poiseuille); regenerates docs/validation.md and
     # validation/results.json, results.csv, tube.png (about 15 minutes).
+    # Then issue 31 item 2: a curved tube (Dean flow) and the stenosis phantom
+    # at M = 5 ... 28 against a Richardson-extrapolated reference; regenerates
+    # its own section of docs/validation.md and validation/curved_results.json,
+    # curved.png (about 20 minutes on 2 cores, most of it the M = 28 bend).
     for p in python3-gmsh gnuplot-nox; do
       dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || {
         apt-get update -qq
@@ -89,6 +93,7 @@ case "${1:-run}" in
       }
     done
     /usr/bin/python3 validation/tube_validation.py --scalemesh "$build/src/cli/scalemesh"
+    /usr/bin/python3 validation/curved_validation.py --scalemesh "$build/src/cli/scalemesh" --jobs 2
     ;;
   *)
     echo "usage: bash setup.sh [run|test|bench|validate]" >&2

@@ -39,7 +39,10 @@ import subprocess
 import sys
 import time
 
-REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.dont_write_bytecode = True  # no __pycache__ in the source tree (ctest runs this from it)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from common import (REPO, log, run, solve, latest_time, read_list, internal_field,  # noqa: E402
+                    patch_field, foam_list_lines, boundary_faces, write_page)
 
 NU = 1e-3          # m^2/s: Reynolds number U D / nu = 0.6, developed within
 U_IN = 0.1         # m/s    about 0.6 diameters of the inlet
@@ -53,25 +56,6 @@ WSS_HALF = 5.0
 
 DEFAULT_M = [5, 7, 10, 14, 20, 28]
 DEFAULT_H = [1.6, 1.2, 0.8, 0.55, 0.4, 0.3]   # Gmsh element sizes, mm
-
-
-def log(msg):
-    print(msg, flush=True)
-
-
-def run(cmd, cwd, logname, nice=False):
-    """Runs `cmd` (a list) in `cwd`, output into cwd/logname; raises on failure."""
-    env = dict(os.environ)
-    env.setdefault("WM_PROJECT_DIR", "/usr/share/openfoam")
-    env["PWD"] = os.path.abspath(cwd)  # else OpenFOAM warns on every line
-    if nice:
-        cmd = ["nice", "-n", "10"] + cmd
-    with open(os.path.join(cwd, logname), "w") as out:
-        code = subprocess.call(cmd, cwd=cwd, stdout=out, stderr=subprocess.STDOUT, env=env)
-    text = open(os.path.join(cwd, logname)).read()
-    if code != 0:
-        raise RuntimeError("%s failed (exit %d) in %s:\n%s" % (" ".join(cmd), code, cwd, text[-3000:]))
-    return text
 
 
 # ---------------------------------------------------------------- meshes
@@ -150,127 +134,6 @@ def gmsh_case(h, case, template):
         raise RuntimeError("no wall patch in " + path)
     open(path, "w").write(text)
     return time.time() - t
-
-
-# ---------------------------------------------------------------- OpenFOAM
-
-def solve(case):
-    """simpleFoam to convergence, then the wall shear stress, cell centres and
-    cell volumes of the last iteration."""
-    check = run(["checkMesh", "-case", "."], case, "log.checkMesh")
-    mesh_ok = "Mesh OK." in check
-    t = time.time()
-    text = run(["simpleFoam", "-case", "."], case, "log.simpleFoam", nice=True)
-    seconds = time.time() - t
-    m = re.search(r"SIMPLE solution converged in (\d+) iterations", text)
-    iterations = int(m.group(1)) if m else len(re.findall(r"(?m)^Time = ", text))
-    run(["simpleFoam", "-case", ".", "-postProcess", "-latestTime", "-func", "wallShearStress"],
-        case, "log.wallShearStress", nice=True)
-    run(["postProcess", "-case", ".", "-latestTime", "-func", "writeCellCentres"], case, "log.cellCentres")
-    run(["postProcess", "-case", ".", "-latestTime", "-func", "writeCellVolumes"], case, "log.cellVolumes")
-    return {"converged": m is not None, "iterations": iterations, "solver_seconds": seconds, "mesh_ok": mesh_ok}
-
-
-def latest_time(case):
-    best, path = -1.0, None
-    for name in os.listdir(case):
-        try:
-            t = float(name)
-        except ValueError:
-            continue
-        if t > best:
-            best, path = t, os.path.join(case, name)
-    return path
-
-
-def read_list(text, at, components):
-    """The ASCII OpenFOAM list starting at or after text[at]: its count, then
-    ( ... ). Returns floats (scalars) or tuples (vectors)."""
-    m = re.compile(r"(\d+)\s*\(").search(text, at)
-    n = int(m.group(1))
-    body_start = m.end()
-    end = text.index(")\n;", body_start) if components == 1 else None
-    if components == 1:
-        values = [float(v) for v in text[body_start:end].split()]
-    else:
-        values = []
-        pos = body_start
-        pat = re.compile(r"\(([^()]*)\)")
-        for mm in pat.finditer(text, pos):
-            values.append(tuple(float(v) for v in mm.group(1).split()))
-            if len(values) == n:
-                break
-    if len(values) != n:
-        raise RuntimeError("list of %d read as %d" % (n, len(values)))
-    return values
-
-
-def internal_field(path, components):
-    text = open(path).read()
-    at = text.index("internalField")
-    if "nonuniform" not in text[at:at + 60]:
-        raise RuntimeError("a uniform internalField in " + path)
-    return read_list(text, at, components)
-
-
-def patch_field(path, patch, components):
-    text = open(path).read()
-    m = re.search(r"\n\s*%s\s*\{[^}]*?value\s+nonuniform" % re.escape(patch), text)
-    if not m:
-        raise RuntimeError("no nonuniform value of patch %s in %s" % (patch, path))
-    return read_list(text, m.end(), components)
-
-
-def foam_list_lines(path):
-    """The entries of an ASCII polyMesh list file, one per line."""
-    lines = open(path).read().split("\n")
-    i = 0
-    while not re.fullmatch(r"\s*\d+\s*", lines[i]) or lines[i + 1].strip() != "(":
-        i += 1
-    n = int(lines[i])
-    return lines[i + 2:i + 2 + n]
-
-
-def boundary_faces(case):
-    """Per patch: a list of (centre, area vector) of its faces, in metres."""
-    poly = os.path.join(case, "constant", "polyMesh")
-    points = [tuple(float(v) for v in l.strip()[1:-1].split()) for l in foam_list_lines(os.path.join(poly, "points"))]
-    text = open(os.path.join(poly, "faces")).read()
-    m = re.search(r"\n(\d+)\s*\n\s*\(", text)
-    # Each face is n(a b c ...), on one line or, when long, on several.
-    tokens = text[m.end():].replace("(", " ( ").replace(")", " ) ").split()
-    faces, i = [], 0
-    while len(faces) < int(m.group(1)) and i < len(tokens):
-        n = int(tokens[i])
-        faces.append(" ".join(tokens[i + 2:i + 2 + n]))
-        i += n + 3
-    if len(faces) != int(m.group(1)):
-        raise RuntimeError("faces: %d of %s read" % (len(faces), m.group(1)))
-    text = open(os.path.join(poly, "boundary")).read()
-    patches = {}
-    for m in re.finditer(r"\n\s*(\w+)\s*\{([^}]*)\}", text):
-        body = m.group(2)
-        if "nFaces" not in body:
-            continue  # the FoamFile header
-        n = int(re.search(r"nFaces\s+(\d+)", body).group(1))
-        start = int(re.search(r"startFace\s+(\d+)", body).group(1))
-        out = []
-        for line in faces[start:start + n]:
-            ids = [int(v) for v in line.split()]
-            ps = [points[k] for k in ids]
-            c = tuple(sum(p[j] for p in ps) / len(ps) for j in range(3))
-            a = [0.0, 0.0, 0.0]
-            for k in range(len(ps)):
-                p, q = ps[k], ps[(k + 1) % len(ps)]
-                u = [p[j] - c[j] for j in range(3)]
-                v = [q[j] - c[j] for j in range(3)]
-                a[0] += 0.5 * (u[1] * v[2] - u[2] * v[1])
-                a[1] += 0.5 * (u[2] * v[0] - u[0] * v[2])
-                a[2] += 0.5 * (u[0] * v[1] - u[1] * v[0])
-            out.append((c, tuple(a)))
-        patches[m.group(1)] = out
-    zs = [p[2] for p in points]
-    return patches, min(zs), max(zs)
 
 
 def analyse(case):
@@ -561,7 +424,7 @@ runs `--quick`: M = {qm}, asserting the mean wall shear stress within 5%.
                        Ms_cli=" ".join("%g" % m for m in args.M), hs_cli=" ".join("%g" % h for h in args.h),
                        minutes=sum(r["mesh_seconds"] + r["solver_seconds"] for r in results) / 60, qm=QUICK_M, png=rel_png,
                        matched=matched(sm, gm), notes=notes)
-    open(doc, "w").write(text)
+    write_page(doc, text)
 
 
 QUICK_M = 7
