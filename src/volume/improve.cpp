@@ -5,6 +5,7 @@
 #include "volume/slabs.h"
 
 #include <algorithm>
+#include <optional>
 #include <array>
 #include <cmath>
 #include <initializer_list>
@@ -500,6 +501,26 @@ Vec3 point_gradient(TetEditor& ed, int32_t v, double h, Measure&& measure)
     }
     ed.point(v) = origin;
     return gradient;
+}
+
+// The size and middle of point v's star (`tets`, v at `origin`): the mean
+// distance from v to the other corners and their mean position, each corner
+// counted once per tet; nothing when v has no star.
+struct StarSpan {
+    double mean_length = 0;
+    Vec3 centroid;
+};
+std::optional<StarSpan> star_span(TetEditor& ed, const std::vector<Tet>& tets, int32_t v, const Vec3& origin)
+{
+    StarSpan span;
+    int edges = 0;
+    for (const Tet& t : tets)
+        for (int32_t w : t)
+            if (w != v) span.mean_length += distance(origin, ed.point(w)), span.centroid += ed.point(w), ++edges;
+    if (edges == 0) return std::nullopt;
+    span.mean_length /= edges;
+    span.centroid /= edges;
+    return span;
 }
 
 // Moves interior point v to raise the smallest aspect ratio of its star. A
@@ -1256,15 +1277,9 @@ bool orthogonalize_point(TetEditor& ed, int32_t v, const LayerBound& layer, cons
         return shape_of(ed, tets, links);
     };
     const Shape start = shape_at(origin);
-    double mean_length = 0;
-    int edges = 0;
-    Vec3 centroid;
-    for (const Tet& t : tets)
-        for (int32_t w : t)
-            if (w != v) mean_length += distance(origin, ed.point(w)), centroid += ed.point(w), ++edges;
-    if (edges == 0) return false;
-    mean_length /= edges;
-    centroid /= edges;
+    const auto span = star_span(ed, tets, v, origin);
+    if (!span) return false;
+    const auto& [mean_length, centroid] = *span;
 
     const Vec3 gradient = point_gradient(ed, v, 1e-4 * mean_length, [&] { return worst_cosine(ed, tets, links); });
     const auto in_ball = [&](const Vec3& x) { return within_layer(layer, x); };
@@ -1391,15 +1406,9 @@ bool raise_point_dihedral(TetEditor& ed, int32_t v, const LayerBound& layer, con
         ed.point(v) = x;
         return shape_of(ed, tets, links);
     };
-    double mean_length = 0;
-    int edges = 0;
-    Vec3 centroid;
-    for (const Tet& t : tets)
-        for (int32_t w : t)
-            if (w != v) mean_length += distance(origin, ed.point(w)), centroid += ed.point(w), ++edges;
-    if (edges == 0) return false;
-    mean_length /= edges;
-    centroid /= edges;
+    const auto span = star_span(ed, tets, v, origin);
+    if (!span) return false;
+    const auto& [mean_length, centroid] = *span;
     const double h = 1e-4 * mean_length;
     const auto in_ball = [&](const Vec3& x) { return within_layer(layer, x); };
 
