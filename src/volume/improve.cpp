@@ -8,6 +8,7 @@
 #include <optional>
 #include <array>
 #include <cmath>
+#include <functional>
 #include <initializer_list>
 #include <map>
 #include <mutex>
@@ -327,8 +328,10 @@ public:
     {
     }
 
-    // Tries the flips of the edges and faces of tet t; true when one was made.
-    bool improve_tet(int32_t t, FlipCounts& counts)
+    // Tries the flips of the edges and faces of tet t, and with `removals`
+    // the removal of its edges (the quality passes, for the tet they aim
+    // at: not for every tet around it); true when one was made.
+    bool improve_tet(int32_t t, FlipCounts& counts, bool removals = false)
     {
         const Tet tet = ed_.tet(t);
         for (int i = 0; i < 4; ++i)
@@ -336,19 +339,27 @@ public:
                 if (flip_edge(tet[i], tet[j], counts)) return true;
         for (int i = 0; i < 4; ++i)
             if (flip_face(tet[(i + 1) % 4], tet[(i + 2) % 4], tet[(i + 3) % 4], counts)) return true;
+        if (removals && (criterion_ == Criterion::dihedral || criterion_ == Criterion::orthogonality))
+            for (int i = 0; i < 4; ++i)
+                for (int j = i + 1; j < 4; ++j)
+                    if (remove_edge(tet[i], tet[j], counts)) return true;
         return false;
     }
 
 private:
+    static constexpr int kMaxRing = 7;                 // edge removal up to seven tets around the edge
     using Tets = Few<Tet, 4>;
     using Volumes = std::array<double, 4>;
+    using Ring = Few<int32_t, kMaxRing>;
+    using RingTets = Few<Tet, 2 * (kMaxRing - 2)>;    // a ring of m triangulated: 2 (m - 2) tets
+    using RingVolumes = std::array<double, 2 * (kMaxRing - 2)>;
 
     // Whether replacing `old` by `fresh` is worth it; the new tets must all
     // be clearly positive (beyond round-off of their size).
-    template <class Old>
-    bool accept(const Old& old, const Tets& fresh, const Volumes& fresh6)
+    template <class Old, class Fresh, class Volumes6>
+    bool accept(const Old& old, const Fresh& fresh, const Volumes6& fresh6)
     {
-        Tets old_tets;
+        Few<Tet, kMaxRing> old_tets;
         for (int32_t t : old) old_tets.push_back(ed_.tet(t));
         const double l2 = longest_edge2(ed_, old_tets);
         const double floor6 = 1e-12 * l2 * std::sqrt(l2);
@@ -374,9 +385,10 @@ private:
 
     // The ring of the edge (a, b): c_0 .. c_{k-1} with (a, b, c_i, c_{i+1})
     // positive. Empty when the tets around the edge do not close (a surface edge).
-    Few<int32_t, 4> ring(int32_t a, int32_t b, const Few<int32_t, 4>& around)
+    template <class Around>
+    Ring ring(int32_t a, int32_t b, const Around& around)
     {
-        Few<std::pair<int32_t, int32_t>, 4> next;
+        Few<std::pair<int32_t, int32_t>, kMaxRing> next;
         for (int32_t t : around) {
             int32_t other[2], k = 0;
             for (int32_t v : ed_.tet(t))
@@ -385,14 +397,14 @@ private:
                 std::swap(other[0], other[1]);
             next.push_back({other[0], other[1]});
         }
-        Few<int32_t, 4> cycle{next[0].first};
+        Ring cycle{next[0].first};
         for (size_t step = 0; step < next.size(); ++step) {
             const int32_t from = cycle.back();
             int32_t to = -1, hits = 0;
             for (const auto& [x, y] : next)
                 if (x == from) to = y, ++hits;
             if (hits != 1) return {};
-            if (step + 1 == next.size()) return to == cycle.front() ? cycle : Few<int32_t, 4>{};
+            if (step + 1 == next.size()) return to == cycle.front() ? cycle : Ring{};
             cycle.push_back(to);
         }
         return {};
@@ -403,7 +415,7 @@ private:
         // The tets around the edge, when there are three or four.
         Few<int32_t, 4> around;
         if (!ed_.tets_at(around, a, b) || (around.size() != 3 && around.size() != 4)) return false;
-        const Few<int32_t, 4> c = ring(a, b, around);
+        const Ring c = ring(a, b, around);
         if (c.size() != around.size()) return false;
         if (c.size() == 3) {
             if (ed_.has_face(c[0], c[1], c[2])) return false;
@@ -431,6 +443,97 @@ private:
             return true;
         }
         return false;
+    }
+
+    // Edge removal (Shewchuk, "Two discrete optimization algorithms for the
+    // topological improvement of tetrahedral meshes", 2002) of an interior
+    // edge (a, b) with five to seven tets around it: its ring is
+    // triangulated every way (5, 14 or 42 ways), each triangle joined to a
+    // and to b, and the best triangulation the criterion accepts replaces
+    // the tets. Only the quality passes use it; the paper's flip pass keeps
+    // its three flips.
+    bool remove_edge(int32_t a, int32_t b, FlipCounts& counts)
+    {
+        Few<int32_t, kMaxRing> around;
+        if (!ed_.tets_at(around, a, b) || around.size() < 5) return false;
+        const Ring c = ring(a, b, around);
+        if (c.size() != around.size()) return false;
+        const int m = static_cast<int>(c.size());
+        Few<Tet, kMaxRing> old_tets;
+        for (int32_t t : around) old_tets.push_back(ed_.tet(t));
+        const Shape before = shape_of(ed_, old_tets, face_links(ed_, old_tets, around));
+        const double l2 = longest_edge2(ed_, old_tets);
+        const double floor6 = 1e-12 * l2 * std::sqrt(l2); // as accept()
+        Shape best = before;
+        RingTets chosen;
+        bool found = false;
+        for (const auto& triangles : polygon_triangulations(m)) {
+            bool usable = true;
+            for (const auto& [i, j, k] : triangles)
+                for (const auto& [p, q] : {std::pair{i, j}, std::pair{j, k}, std::pair{i, k}})
+                    if (q - p > 1 && !(p == 0 && q == m - 1) && ed_.has_edge(c[p], c[q])) usable = false;
+            if (!usable) continue;
+            RingTets fresh;
+            RingVolumes v6{};
+            // (c_i, c_j, c_k) with i < j < k turns as the ring does: a on one
+            // side, b on the other, the same for every triangle.
+            for (const auto& [i, j, k] : triangles) {
+                const Tet ta = oriented(ed_, c[i], c[j], c[k], a, v6[fresh.size()]);
+                usable = usable && ta[1] == c[k];
+                fresh.push_back(ta);
+                const Tet tb = oriented(ed_, c[i], c[j], c[k], b, v6[fresh.size()]);
+                usable = usable && tb[1] == c[j];
+                fresh.push_back(tb);
+            }
+            if (!usable) continue;
+            // The cheap tests first: volumes, aspect ratios, dihedral angles;
+            // the face links (for the non-orthogonality) only then.
+            double smallest6 = 1e300, aspect = 1e300, dihedral = 1e300;
+            for (size_t k = 0; k < fresh.size(); ++k) {
+                const Tet& t = fresh[k];
+                smallest6 = std::min(smallest6, v6[k]);
+                aspect = std::min(aspect, ed_.aspect(t));
+                dihedral = std::min(dihedral, tet_min_dihedral_deg(ed_.point(t[0]), ed_.point(t[1]), ed_.point(t[2]),
+                                                                   ed_.point(t[3])));
+            }
+            if (!(smallest6 > floor6) || aspect < std::min(before.aspect, floors_.aspect)) continue;
+            if (criterion_ == Criterion::dihedral && !(dihedral > best.dihedral + 1e-6)) continue;
+            if (criterion_ == Criterion::orthogonality && dihedral < std::min(before.dihedral, floors_.dihedral)) continue;
+            const Shape now = shape_of(ed_, fresh, face_links(ed_, fresh, around));
+            if (criterion_ == Criterion::dihedral ? dihedral_better(best, now, floors_) : ortho_better(best, now, floors_))
+                best = now, chosen = fresh, found = true;
+        }
+        if (!found) return false;
+        ed_.replace(around, chosen);
+        ++counts.edge_removals;
+        return true;
+    }
+
+    // Every triangulation of a convex polygon of m corners (3 to kMaxRing),
+    // as triangles (i, j, k) of corner indices with i < j < k.
+    static const std::vector<std::vector<std::array<int, 3>>>& polygon_triangulations(int m)
+    {
+        static const auto table = [] {
+            std::vector<std::vector<std::vector<std::array<int, 3>>>> all(kMaxRing + 1);
+            // The triangulations of the sub-polygon i..j (j - i >= 2): the
+            // triangle on the edge (i, j) has apex l, the rest recurses.
+            std::function<std::vector<std::vector<std::array<int, 3>>>(int, int)> of = [&](int i, int j) {
+                std::vector<std::vector<std::array<int, 3>>> out;
+                if (j - i < 2) return std::vector<std::vector<std::array<int, 3>>>{{}};
+                for (int l = i + 1; l < j; ++l)
+                    for (const auto& left : of(i, l))
+                        for (const auto& right : of(l, j)) {
+                            auto t = left;
+                            t.insert(t.end(), right.begin(), right.end());
+                            t.push_back({i, l, j});
+                            out.push_back(std::move(t));
+                        }
+                return out;
+            };
+            for (int n = 3; n <= kMaxRing; ++n) all[n] = of(0, n - 1);
+            return all;
+        }();
+        return table[m];
     }
 
     bool flip_face(int32_t a, int32_t b, int32_t c, FlipCounts& counts)
@@ -1090,7 +1193,8 @@ FlipCounts flip_sweeps(TetMesh& mesh, int sweeps)
 
 FlipCounts operator+(FlipCounts a, const FlipCounts& b)
 {
-    return {a.flips_32 + b.flips_32, a.flips_23 + b.flips_23, a.flips_44 + b.flips_44};
+    return {a.flips_32 + b.flips_32, a.flips_23 + b.flips_23, a.flips_44 + b.flips_44,
+            a.edge_removals + b.edge_removals};
 }
 
 } // namespace
@@ -1343,7 +1447,7 @@ OrthoCounts improve_orthogonality(TetMesh& mesh, int32_t surface_points, double 
         int64_t changed = 0;
         for (const auto& [t, u] : bad) {
             if (!ed.alive(t) || !ed.alive(u) || !(face_cosine(t, u) < bound)) continue;
-            if (flipper.improve_tet(t, flips) || flipper.improve_tet(u, flips)) {
+            if (flipper.improve_tet(t, flips, true) || flipper.improve_tet(u, flips, true)) {
                 ++changed;
                 continue;
             }
@@ -1371,7 +1475,7 @@ OrthoCounts improve_orthogonality(TetMesh& mesh, int32_t surface_points, double 
         }
         if (changed == 0) break;
     }
-    counts.flips = flips.flips_23 + flips.flips_32 + flips.flips_44;
+    counts.flips = flips.flips_23 + flips.flips_32 + flips.flips_44 + flips.edge_removals;
     ed.commit();
     return counts;
 }
@@ -1523,7 +1627,7 @@ DihedralCounts raise_dihedral_angles(TetMesh& mesh, int32_t surface_points, doub
     // Flips at the tet, then at the tets around its edges, then moves of its
     // free points; true when something changed.
     const auto improve = [&](int32_t t) {
-        if (flipper.improve_tet(t, flips)) return true;
+        if (flipper.improve_tet(t, flips, true)) return true;
         const Tet tet = ed.tet(t);
         bool changed = false;
         for (int i = 0; i < 4; ++i)
@@ -1568,7 +1672,7 @@ DihedralCounts raise_dihedral_angles(TetMesh& mesh, int32_t surface_points, doub
             if (changed == 0) break;
         }
     }
-    counts.flips = flips.flips_23 + flips.flips_32 + flips.flips_44;
+    counts.flips = flips.flips_23 + flips.flips_32 + flips.flips_44 + flips.edge_removals;
     ed.commit();
     return counts;
 }

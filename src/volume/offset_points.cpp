@@ -103,16 +103,36 @@ std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const Feature
     const std::vector<double> lambda = layer_fractions(params.M, params.growth);
     if (params.first_layer == FirstLayer::edge && (!(params.K > 0) || !std::isfinite(params.K)))
         throw InputError("volume: K must be a positive number", "use K = 4.2");
-    // FirstLayer::edge: each node's mean incident edge length.
+    // FirstLayer::edge: each node's mean incident edge length, raised where
+    // a triangle of the node is tall from it. The first-layer point over a
+    // node caps one of its triangles in the volume mesh; that tet's dihedral
+    // angle at the far edge is about atan(thickness / height of the
+    // triangle from the node), so the thickness is kept at least
+    // tan(kCapAngle) times the largest such height (a margin over the
+    // 10 degrees a finite-volume solver wants). Well-shaped triangles never
+    // reach it (an equilateral one gives 15 degrees at K = 4.2).
+    constexpr double kCapAngle = 12.0 * M_PI / 180;
     std::vector<double> edge(params.first_layer == FirstLayer::edge ? n : 0, 0.0);
     if (!edge.empty()) {
         const VertexTable neighbours = vertex_neighbours(surface);
+        const VertexTable fans = vertex_triangles(surface);
         tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& range) {
             for (size_t i = range.begin(); i != range.end(); ++i) {
                 double sum = 0;
                 for (const int32_t* j = neighbours.begin(i); j != neighbours.end(i); ++j)
                     sum += distance(surface.points[i], surface.points[*j]);
                 if (neighbours.size(i) > 0) edge[i] = sum / neighbours.size(i);
+                double tallest = 0;
+                for (const int32_t* f = fans.begin(i); f != fans.end(i); ++f) {
+                    const Triangle& tri = surface.triangles[*f];
+                    int k = 0;
+                    while (tri[k] != static_cast<int32_t>(i)) ++k;
+                    const Vec3& b = surface.points[tri[(k + 1) % 3]];
+                    const Vec3& c = surface.points[tri[(k + 2) % 3]];
+                    const double base = distance(b, c);
+                    if (base > 0) tallest = std::max(tallest, norm(cross(b - surface.points[i], c - surface.points[i])) / base);
+                }
+                edge[i] = std::max(edge[i], params.K * std::tan(kCapAngle) * tallest);
             }
         });
     }

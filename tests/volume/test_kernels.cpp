@@ -191,6 +191,68 @@ TEST(KernelFlips, FourToFourTakesTheDiagonalThatMeetsTheCriterion)
     EXPECT_NEAR(smallest_volume(mesh), 8.0 / 6, 1e-12);
 }
 
+// ---- Edge removal (the quality passes) -----------------------------------
+
+double smallest_dihedral(const TetMesh& mesh)
+{
+    double d = 1e300;
+    for (const Tet& t : mesh.tets)
+        d = std::min(d, tet_min_dihedral_deg(mesh.points[t[0]], mesh.points[t[1]], mesh.points[t[2]], mesh.points[t[3]]));
+    return d;
+}
+
+// An interior edge (a, b) from (0, 0, 1) to (0, 0, -1) with m tets around it:
+// the ring c_0 .. c_{m-1} on the unit circle in z = 0, spread evenly over
+// 185 degrees, so that the gap from c_{m-1} back to c_0 is 175 degrees and
+// the tet (a, b, c_{m-1}, c_0) is nearly flat at (a, b): 3.53 degrees. No
+// 2-3 flip of a face (a, b, c_i) raises its two tets' smallest angle, and
+// with five or more tets around (a, b) neither a 3-2 nor a 4-4 flip applies;
+// removing the edge (the ring triangulated, each triangle joined to a and b)
+// gives 19.65 degrees at best for m = 5, 11.85 for m = 7.
+TetMesh edge_with_a_flat_tet(int m)
+{
+    std::vector<Vec3> points;
+    std::vector<Tet> tets;
+    const double step = 185.0 / (m - 1);
+    for (int k = 0; k < m; ++k) {
+        const double angle = (90 + 87.5 + k * step) * M_PI / 180;
+        points.push_back({std::cos(angle), std::sin(angle), 0});
+    }
+    points.push_back({0, 0, 1});
+    points.push_back({0, 0, -1});
+    for (int k = 0; k < m; ++k) tets.push_back({m, m + 1, k, (k + 1) % m});
+    return tet_mesh(points, tets);
+}
+
+void expect_edge_removed(int m, double target_deg, double best_deg)
+{
+    const TetMesh before = edge_with_a_flat_tet(m);
+    ASSERT_NEAR(smallest_dihedral(before), 3.533, 1e-3);
+    TetMesh mesh = before;
+    // Every point a surface point: no moves, and no split is needed once the
+    // edge is gone (the best triangulation is above the target).
+    const DihedralCounts counts = raise_dihedral_angles(mesh, static_cast<int32_t>(mesh.points.size()), target_deg, 4);
+    EXPECT_EQ(counts.tets_before, 1);
+    EXPECT_EQ(counts.moves, 0);
+    EXPECT_EQ(counts.splits, 0);
+    EXPECT_EQ(counts.flips, 1) << "one edge removal";
+    ASSERT_EQ(mesh.tets.size(), size_t(2 * (m - 2)));
+    for (const Tet& t : mesh.tets) EXPECT_FALSE(holds(t, m) && holds(t, m + 1)) << "the edge (a, b) is still there";
+    expect_flip_invariants(before, mesh);
+    // The best of the ring's triangulations was taken.
+    EXPECT_NEAR(smallest_dihedral(mesh), best_deg, 0.01);
+}
+
+TEST(KernelEdgeRemoval, AnEdgeWithFiveTetsIsReplacedByTheBestTriangulationOfItsRing)
+{
+    expect_edge_removed(5, 15.0, 19.65);
+}
+
+TEST(KernelEdgeRemoval, AnEdgeWithSevenTetsIsReplacedByTheBestOfTheFortyTwoTriangulations)
+{
+    expect_edge_removed(7, 10.0, 11.85);
+}
+
 // ---- Conditional insertion (Algorithm 5) ---------------------------------
 
 // A closed tetrahedron surface: the equilateral triangle c0 c1 c2 in z = 0
