@@ -126,7 +126,9 @@ struct OrthoCounts {
 // Face non-orthogonality as OpenFOAM measures it (the angle between an
 // interior face's normal and the join of its two tets' centroids): for at
 // most `sweeps` rounds, each interior face beyond `max_angle_deg` gets a
-// flip (2-3, 3-2, 4-4) at one of its two tets, else moves of their interior
+// flip (2-3, 3-2, 4-4) or an edge removal (an interior edge with five to
+// seven tets replaced by the best triangulation of its ring) at one of its
+// two tets, else moves of their interior
 // points, each accepted when it lowers the worst non-orthogonality of the
 // faces it changes and leaves no new tet below aspect ratio 0.1 or a
 // dihedral angle of 10 degrees (or the old tets' own, if lower). Surface
@@ -143,7 +145,8 @@ struct DihedralCounts {
 
 // Raises the smallest dihedral angle of the tets below `target_deg`
 // (degrees): for at most `sweeps` rounds, each such tet gets a flip (2-3,
-// 3-2, 4-4) at it, else at one of the tets around its edges, else moves of
+// 3-2, 4-4) or an edge removal at it, else a flip at one of the tets around
+// its edges, else moves of
 // its interior points (an optimisation of the worst dihedral angle of the
 // point's star, a layer point within layers[v].slack of layers[v].home); a
 // change is kept when it raises the smallest dihedral angle of the tets it

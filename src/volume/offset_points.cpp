@@ -107,10 +107,12 @@ std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const Feature
     // a triangle of the node is tall from it. The first-layer point over a
     // node caps one of its triangles in the volume mesh; that tet's dihedral
     // angle at the far edge is about atan(thickness / height of the
-    // triangle from the node), so the thickness is kept at least
+    // triangle from the node), so the thickness (edge / K) is raised to
     // tan(kCapAngle) times the largest such height (a margin over the
-    // 10 degrees a finite-volume solver wants). Well-shaped triangles never
-    // reach it (an equilateral one gives 15 degrees at K = 4.2).
+    // 10 degrees a finite-volume solver wants), unless the paper's
+    // lambda_1 d is thinner still (edge_layer_fractions keeps the smaller).
+    // Well-shaped triangles never reach it (an equilateral one gives 15
+    // degrees at K = 4.2).
     constexpr double kCapAngle = 12.0 * M_PI / 180;
     std::vector<double> edge(params.first_layer == FirstLayer::edge ? n : 0, 0.0);
     if (!edge.empty()) {

@@ -406,8 +406,9 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
         // flips and moves for the faces beyond 65, keeping the quality floors
         // and the layers' balls.
         // The two passes alternate while either still changes the mesh: a
-        // flip or move made for one opens moves for the other; the later
-        // rounds, on the few faces left, take fewer sweeps.
+        // flip or move made for one opens moves for the other; in the later
+        // rounds, on the few faces left, the non-orthogonality pass takes 4
+        // sweeps instead of 12.
         result.dihedral_flips = dihedral.flips, result.dihedral_moves = dihedral.moves;
         result.dihedral_splits = dihedral.splits;
         for (int round = 0; round < 3; ++round) {
