@@ -209,6 +209,15 @@ double longest_edge2(const TetEditor& ed, const Tets& tets)
     return l2;
 }
 
+// Six times the smallest volume a new tet must clearly exceed, beyond the
+// round-off of the size of the tets it replaces.
+template <class Tets>
+double volume_floor6(const TetEditor& ed, const Tets& tets)
+{
+    const double l2 = longest_edge2(ed, tets);
+    return 1e-12 * l2 * std::sqrt(l2);
+}
+
 Vec3 centroid(const TetEditor& ed, const Tet& t)
 {
     return 0.25 * (ed.point(t[0]) + ed.point(t[1]) + ed.point(t[2]) + ed.point(t[3]));
@@ -361,8 +370,7 @@ private:
     {
         Few<Tet, kMaxRing> old_tets;
         for (int32_t t : old) old_tets.push_back(ed_.tet(t));
-        const double l2 = longest_edge2(ed_, old_tets);
-        const double floor6 = 1e-12 * l2 * std::sqrt(l2);
+        const double floor6 = volume_floor6(ed_, old_tets);
         double new_min = 1e300;
         for (size_t k = 0; k < fresh.size(); ++k) new_min = std::min(new_min, fresh6[k]);
         if (!(new_min > floor6)) return false;
@@ -462,8 +470,7 @@ private:
         Few<Tet, kMaxRing> old_tets;
         for (int32_t t : around) old_tets.push_back(ed_.tet(t));
         const Shape before = shape_of(ed_, old_tets, face_links(ed_, old_tets, around));
-        const double l2 = longest_edge2(ed_, old_tets);
-        const double floor6 = 1e-12 * l2 * std::sqrt(l2); // as accept()
+        const double floor6 = volume_floor6(ed_, old_tets);
         Shape best = before;
         RingTets chosen;
         bool found = false;
@@ -865,8 +872,7 @@ std::vector<int32_t> repair_surface_quads(TetMesh& mesh, const std::vector<std::
         if (ok) {
             std::vector<Tet> old;
             for (int32_t t : around) old.push_back(ed.tet(t));
-            const double l2 = longest_edge2(ed, old);
-            const double floor6 = 1e-12 * l2 * std::sqrt(l2);
+            const double floor6 = volume_floor6(ed, old);
             ok = false;
             double best = 0;
             for (int sign : {1, -1}) {
@@ -1263,7 +1269,7 @@ public:
         return changed;
     }
 
-    SliverCounts counts() const { return {flips_.flips_32 + flips_.flips_23 + flips_.flips_44, moves_}; }
+    SliverCounts counts() const { return {flips_.total(), moves_}; }
 
 private:
     bool skip(int32_t id, double below) const
@@ -1475,7 +1481,7 @@ OrthoCounts improve_orthogonality(TetMesh& mesh, int32_t surface_points, double 
         }
         if (changed == 0) break;
     }
-    counts.flips = flips.flips_23 + flips.flips_32 + flips.flips_44 + flips.edge_removals;
+    counts.flips = flips.total();
     ed.commit();
     return counts;
 }
@@ -1672,7 +1678,7 @@ DihedralCounts raise_dihedral_angles(TetMesh& mesh, int32_t surface_points, doub
             if (changed == 0) break;
         }
     }
-    counts.flips = flips.flips_23 + flips.flips_32 + flips.flips_44 + flips.edge_removals;
+    counts.flips = flips.total();
     ed.commit();
     return counts;
 }

@@ -59,6 +59,7 @@ int64_t peel_surface_caps(TetMesh& mesh, int32_t surface_points, double threshol
 struct FlipCounts {
     int64_t flips_32 = 0, flips_23 = 0, flips_44 = 0;
     int64_t edge_removals = 0; // five to seven tets around an edge, by the quality passes only
+    int64_t total() const { return flips_32 + flips_23 + flips_44 + edge_removals; }
 };
 
 // Section 2.4: a 3-2 flip of an interior edge with three tets is made when
