@@ -46,7 +46,13 @@ def run_gmsh(args, workdir, params_geo):
         sys.exit("FAIL: the gmsh program is missing: apt-get install gmsh (bash setup.sh installs it)")
     with open(os.path.join(workdir, "params.geo"), "w") as f:
         f.write(params_geo)
-    env = dict(os.environ, SCALEMESH_BINARY=os.path.abspath(args.scalemesh), SCALEMESH_GUI_SAVE=os.path.join(workdir, "merged"))
+    # Gmsh opens its ONELAB socket at $HOME/.gmshsock: each run gets a home
+    # of its own, or the tests that ctest runs at once (and a Gmsh the user
+    # has open) would meet on one socket.
+    home = os.path.join(workdir, "home")
+    os.makedirs(home, exist_ok=True)
+    env = dict(os.environ, HOME=home, SCALEMESH_BINARY=os.path.abspath(args.scalemesh),
+               SCALEMESH_GUI_SAVE=os.path.join(workdir, "merged"))
     command = [gmsh_binary, os.path.abspath(args.client), "params.geo", "-nopopup", "-"]
     print("running " + " ".join(command) + " in " + workdir)
     result = subprocess.run(command, cwd=workdir, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
