@@ -66,6 +66,7 @@ def run_case(scalemesh, work, name, label, edits):
         "coverage": layers["coverage"],
         "mean": layers["mean_layers"],
         "stand_ins": layers["stand_ins"],
+        "released": volume["dihedral_pass"].get("released_layer_points", 0),
         "anisotropy": volume["first_layer_anisotropy_median"],
         "tets": volume["tets"],
         "worst_aspect": quality["min_aspect_ratio"],
@@ -78,13 +79,14 @@ def run_case(scalemesh, work, name, label, edits):
 
 
 def table(rows):
-    out = ["| case | M | wall nodes owed | all layers | mean layers | stand-ins | anisotropy median | tets | "
-           "worst aspect ratio | min dihedral (deg) | checkMesh | max non-orth. (deg) | faces > 70 deg | warnings |",
-           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    out = ["| case | M | wall nodes owed | all layers | mean layers | stand-ins | layer points released | "
+           "anisotropy median | tets | worst aspect ratio | min dihedral (deg) | checkMesh | max non-orth. (deg) | "
+           "faces > 70 deg | warnings |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         out.append(f"| {r['case']} | {r['M']:g} | {r['owed']} | {100 * r['coverage']:.2f}% | {r['mean']:.2f} | "
-                   f"{r['stand_ins']} | {r['anisotropy']:.2f} | {r['tets']} | {r['worst_aspect']:.4f} | "
-                   f"{r['min_dihedral']:.2f} | {'Mesh OK' if r['mesh_ok'] else 'FAILED'} | {r['non_ortho']:.1f} | "
+                   f"{r['stand_ins']} | {r['released']} | {r['anisotropy']:.2f} | {r['tets']} | {r['worst_aspect']:.4f} | "
+                   f"{r['min_dihedral']:.2f} | {'Mesh OK' if r['mesh_ok'] else 'FAILED'} | {r['non_ortho']:.2f} | "
                    f"{r['severe']} | {r['warnings']} |")
     return "\n".join(out)
 

@@ -103,17 +103,41 @@ std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const Feature
     const std::vector<double> lambda = layer_fractions(params.M, params.growth);
     if (params.first_layer == FirstLayer::edge && (!(params.K > 0) || !std::isfinite(params.K)))
         throw InputError("volume: K must be a positive number", "use K = 4.2");
+    // Wall nodes whose normal failed the inward check: a repaired direction.
+    std::vector<Vec3> direction(sizing.normals.begin(), sizing.normals.end());
+    std::vector<char> repaired(n, 0);
+    if (params.repair_normals && !sizing.inward_ok.empty() &&
+        std::count(sizing.inward_ok.begin(), sizing.inward_ok.end(), 0) > 0) {
+        const VertexTable fans = vertex_triangles(surface);
+        std::vector<char> wall(n, 1);
+        if (surface.triangle_patch.size() == surface.triangles.size())
+            for (size_t t = 0; t < surface.triangles.size(); ++t)
+                if (surface.triangle_patch[t] != 0)
+                    for (int32_t v : surface.triangles[t]) wall[v] = 0;
+        for (size_t i = 0; i < n; ++i)
+            if (!sizing.inward_ok[i] && wall[i])
+                if (const auto x = repaired_inward_direction(surface, fans, static_cast<int32_t>(i), sizing.normals[i]))
+                    direction[i] = *x, repaired[i] = 1;
+    }
     // FirstLayer::edge: each node's mean incident edge length, raised where
     // a triangle of the node is tall from it. The first-layer point over a
     // node caps one of its triangles in the volume mesh; that tet's dihedral
-    // angle at the far edge is about atan(thickness / height of the
-    // triangle from the node), so the thickness (edge / K) is raised to
-    // tan(kCapAngle) times the largest such height (a margin over the
-    // 10 degrees a finite-volume solver wants), unless the paper's
-    // lambda_1 d is thinner still (edge_layer_fractions keeps the smaller).
-    // Well-shaped triangles never reach it (an equilateral one gives 15
-    // degrees at K = 4.2).
+    // angle at the far edge is about atan(thickness * cos(tilt) / height of
+    // the triangle from the node), where tilt is the angle between the
+    // node's layer direction and the triangle's normal. So the thickness
+    // (edge / K) is raised to tan(kCapAngle) times the largest such
+    // height / cos(tilt) (a margin over the 10 degrees a finite-volume
+    // solver wants), unless the paper's lambda_1 d is thinner still
+    // (edge_layer_fractions keeps the smaller). Well-shaped triangles on a
+    // smooth wall never reach it (an equilateral one gives 15 degrees at
+    // K = 4.2); on a ridge of the wall the layer direction is up to 90
+    // degrees from some triangles of the node, and cos(tilt) is taken as
+    // kMinTilt at least there, so one fold does not thicken a node's first
+    // layer more than fourfold. An opening's triangles count untilted: the
+    // layer direction of a rim node lies in the opening's plane by design,
+    // and no layer point caps those triangles.
     constexpr double kCapAngle = 12.0 * M_PI / 180;
+    constexpr double kMinTilt = 0.25;
     std::vector<double> edge(params.first_layer == FirstLayer::edge ? n : 0, 0.0);
     if (!edge.empty()) {
         const VertexTable neighbours = vertex_neighbours(surface);
@@ -132,7 +156,13 @@ std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const Feature
                     const Vec3& b = surface.points[tri[(k + 1) % 3]];
                     const Vec3& c = surface.points[tri[(k + 2) % 3]];
                     const double base = distance(b, c);
-                    if (base > 0) tallest = std::max(tallest, norm(cross(b - surface.points[i], c - surface.points[i])) / base);
+                    const Vec3 twice_area = cross(b - surface.points[i], c - surface.points[i]);
+                    if (!(base > 0) || !(norm2(twice_area) > 0)) continue;
+                    const bool wall = surface.triangle_patch.size() != surface.triangles.size() ||
+                                      surface.triangle_patch[*f] == 0;
+                    const double tilt =
+                        wall ? std::max(kMinTilt, dot(normalized(direction[i]), normalized(twice_area))) : 1.0;
+                    tallest = std::max(tallest, norm(twice_area) / base / tilt);
                 }
                 edge[i] = std::max(edge[i], params.K * std::tan(kCapAngle) * tallest);
             }
@@ -142,22 +172,6 @@ std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const Feature
     // Node i's points, passed one by one to `emit`; the count pass and the
     // fill pass walk the same steps, so each node's points land in its own
     // slice of the output and the order does not depend on the threads.
-    // Wall nodes whose normal failed the inward check: a repaired direction.
-    std::vector<Vec3> direction(sizing.normals.begin(), sizing.normals.end());
-    std::vector<char> repaired(n, 0);
-    if (params.repair_normals && !sizing.inward_ok.empty() &&
-        std::count(sizing.inward_ok.begin(), sizing.inward_ok.end(), 0) > 0) {
-        const VertexTable fans = vertex_triangles(surface);
-        std::vector<char> wall(n, 1);
-        if (surface.triangle_patch.size() == surface.triangles.size())
-            for (size_t t = 0; t < surface.triangles.size(); ++t)
-                if (surface.triangle_patch[t] != 0)
-                    for (int32_t v : surface.triangles[t]) wall[v] = 0;
-        for (size_t i = 0; i < n; ++i)
-            if (!sizing.inward_ok[i] && wall[i])
-                if (const auto x = repaired_inward_direction(surface, fans, static_cast<int32_t>(i), sizing.normals[i]))
-                    direction[i] = *x, repaired[i] = 1;
-    }
     auto walk = [&](size_t i, auto&& emit) {
         if (!sizing.inward_ok.empty() && !sizing.inward_ok[i] && !repaired[i]) return;
         // A repaired node's D is not measured (no ray along its normal): its

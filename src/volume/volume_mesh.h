@@ -95,6 +95,8 @@ struct VolumeResult {
     int64_t ortho_flips = 0, ortho_moves = 0; // the non-orthogonality pass's changes (improve_orthogonality)
     int64_t dihedral_tets_before = 0; // tets below 12 degrees of dihedral angle before raise_dihedral_angles
     int64_t dihedral_flips = 0, dihedral_moves = 0, dihedral_splits = 0; // its changes, both runs
+    int64_t released_layer_points = 0; // layer points let off their layers for a last round where cells still
+                                       // missed 10 degrees of dihedral angle or 70 of non-orthogonality
     int64_t sliver_splits = 0;   // edges of surface-point slivers split by a new interior point
     // seconds_classify is the removal: the surface points' triangulation,
     // inside and outside, the output and the quads put back.

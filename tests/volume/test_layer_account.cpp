@@ -7,11 +7,13 @@
 #include "sizing/feature_size.h"
 #include "volume/layer_account.h"
 #include "volume/offset_points.h"
+#include "volume/quality.h"
 
 #include <gtest/gtest.h>
 
 #include <iostream>
 
+#include <algorithm>
 #include <cmath>
 #include <numeric>
 #include <optional>
@@ -202,27 +204,72 @@ TEST(EdgeFirstLayer, FractionsStartAtTheFirstAndSumToTheSameTotal)
 }
 
 // offset_points with FirstLayer::edge: the first point at the node's mean
-// edge length over K, the last layermaking point where the paper's is.
+// edge length over K, the last layermaking point where the paper's is. K = 1
+// on the tetrahedron (edges 1): the first layer, 1, is above the cap floor
+// of the next test (0.55), so the edge length alone sets it.
 TEST(EdgeFirstLayer, OffsetPointsFollowTheEdgeLength)
 {
     const SurfaceMesh s = tetrahedron();
-    const FeatureSize f = sizing_of(s, 7.0); // d = 7: the paper's spacing is 1, edges are 1
+    const FeatureSize f = sizing_of(s, 14.0); // d = 14: the paper's spacing is 2, edges are 1
     OffsetParams params;
     params.M = 7;
-    params.L_max = 7;
-    params.K = 4.0;
+    params.L_max = 14;
+    params.K = 1.0;
     params.first_layer = FirstLayer::edge;
     const std::vector<OffsetPoint> points = offset_points(s, f, params);
     params.first_layer = FirstLayer::paper;
     const std::vector<OffsetPoint> paper = offset_points(s, f, params);
     int checked = 0;
     for (const OffsetPoint& p : points) {
-        if (p.layer == 1) { EXPECT_NEAR(p.dist, 0.25, 1e-12); ++checked; }
-        if (p.layer == 3) { EXPECT_NEAR(p.dist, 3.0, 1e-9); ++checked; }
+        if (p.layer == 1) { EXPECT_NEAR(p.dist, 1.0, 1e-12); ++checked; }
+        if (p.layer == 3) { EXPECT_NEAR(p.dist, 6.0, 1e-9); ++checked; }
     }
     EXPECT_EQ(checked, 8);
     for (const OffsetPoint& p : paper)
-        if (p.layer == 1) { EXPECT_NEAR(p.dist, 1.0, 1e-12); }
+        if (p.layer == 1) { EXPECT_NEAR(p.dist, 2.0, 1e-12); }
+}
+
+// The cap floor on a sharp corner: at a vertex of the regular tetrahedron
+// the layer direction is acos(1/3) = 70.5 degrees from each incident
+// triangle's normal, so a first-layer point at thickness t lies only t / 3
+// above each triangle, whose height from the vertex is sqrt(3) / 2. The
+// thickness is raised from edge / K = 0.25 to tan(12 deg) * (sqrt(3) / 2) * 3
+// = 0.552. The cap tet over each triangle of the node, with the point as
+// its apex, then has no dihedral angle below 12 degrees (28.1: the point
+// also leans toward the far edge); at 0.25 it would have 7.5. With the last
+// triangle on an opening, its tilt is not counted (a rim node's layer runs
+// in the opening's plane), and the nodes on it keep the floor of their wall
+// triangles, also 0.552.
+TEST(EdgeFirstLayer, TheFirstLayerClearsTheTrianglesItIsTiltedFrom)
+{
+    const double floor = std::tan(12.0 * M_PI / 180) * std::sqrt(3.0) / 2 * 3;
+    for (bool cap : {false, true}) {
+        const SurfaceMesh s = tetrahedron(cap);
+        const FeatureSize f = sizing_of(s, 7.0); // the paper's spacing is 1: not thinner than the floor
+        OffsetParams params;
+        params.M = 7;
+        params.L_max = 7;
+        params.K = 4.0;
+        params.first_layer = FirstLayer::edge;
+        int checked = 0;
+        for (const OffsetPoint& p : offset_points(s, f, params))
+            if (p.layer == 1) {
+                EXPECT_NEAR(p.dist, floor, 1e-9) << "node " << p.generator << (cap ? " with a cap" : "");
+                // The cap tet over each wall triangle of the node, with this
+                // point as apex, and with the point at edge / K instead.
+                for (size_t t = 0; t < s.triangles.size(); ++t) {
+                    const Triangle& tri = s.triangles[t];
+                    if (s.triangle_patch[t] != 0 || std::find(tri.begin(), tri.end(), p.generator) == tri.end())
+                        continue;
+                    const Vec3 &a = s.points[tri[0]], &b = s.points[tri[2]], &c = s.points[tri[1]];
+                    EXPECT_GE(tet_min_dihedral_deg(a, b, c, p.position), 12.0);
+                    const Vec3 at_edge_length = s.points[p.generator] + 0.25 / p.dist * (p.position - s.points[p.generator]);
+                    EXPECT_LT(tet_min_dihedral_deg(a, b, c, at_edge_length), 10.0);
+                }
+                ++checked;
+            }
+        EXPECT_EQ(checked, 4);
+    }
 }
 
 } // namespace
