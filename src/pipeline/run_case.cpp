@@ -329,6 +329,7 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
                               {"removal", v.seconds_classify},
                               {"flips", v.seconds_flips},
                               {"slivers", v.seconds_slivers},
+                              {"dihedral_and_orthogonality_passes", v.seconds_cell_passes},
                               {"quality", v.seconds_quality},
                               {"checks", v.seconds_checks},
                               {"total", v.seconds_total}}}};

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 namespace scalemesh {
@@ -1435,23 +1436,86 @@ OrthoCounts improve_orthogonality(TetMesh& mesh, int32_t surface_points, double 
         while (TetEditor::contains(two[1], two[0][k])) ++k; // t's corner off the face
         return worst_cosine(ed, two, {FaceLink{0, k, 1, -1}});
     };
-    for (int sweep = 0; sweep < sweeps; ++sweep) {
-        // The interior faces beyond the bound, as pairs of tets in tet order.
-        std::vector<std::pair<int32_t, int32_t>> bad;
-        for (size_t i = 0; i < ed.size(); ++i) {
-            const auto t = static_cast<int32_t>(i);
-            if (!ed.alive(t)) continue;
+    // The interior faces beyond the bound, each as (t, k, u): the face
+    // opposite corner k of tet t, u the tet across, t < u; in (t, k) order,
+    // as a scan of every tet's faces finds them. The first sweep scans every
+    // tet; a later one only the tets whose faces can have changed since: the
+    // tets made since (ids from `seen` on), those at the points moved since,
+    // and the tets of the faces found beyond the bound then. Any other face
+    // has the same two tets at the same places, so the same verdict.
+    struct BadFace {
+        int32_t t, k, u;
+    };
+    std::vector<BadFace> bad;
+    std::vector<int32_t> moved;
+    size_t seen = 0;
+    const auto scan = [&] {
+        std::vector<int32_t> visit;
+        if (seen == 0) {
+            // The editor is fresh (every tet alive, ids as in the mesh): the
+            // faces from the mesh's adjacency, their angles in parallel
+            // (reading only), then in (t, k) order.
+            seen = ed.size();
+            const TetFaceAdjacency adjacency = tet_face_adjacency(mesh);
+            tbb::enumerable_thread_specific<std::vector<BadFace>> local;
+            tbb::parallel_for(tbb::blocked_range<size_t>(0, ed.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+                std::vector<BadFace>& out = local.local();
+                for (size_t i = r.begin(); i != r.end(); ++i)
+                    for (int k = 0; k < 4; ++k) {
+                        const int32_t t = int32_t(i), u = adjacency.across[4 * i + k];
+                        if (u > t && face_cosine(t, u) < bound) out.push_back({t, k, u});
+                    }
+            });
+            bad.clear();
+            for (const auto& part : local) bad.insert(bad.end(), part.begin(), part.end());
+            std::sort(bad.begin(), bad.end(), [](const BadFace& a, const BadFace& b) {
+                return a.t != b.t ? a.t < b.t : a.k < b.k;
+            });
+            return;
+        } else {
+            for (const BadFace& f : bad)
+                for (int32_t t : {f.t, f.u})
+                    if (ed.alive(t)) visit.push_back(t);
+            for (size_t i = seen; i < ed.size(); ++i)
+                if (ed.alive(int32_t(i))) visit.push_back(int32_t(i));
+            for (int32_t v : moved)
+                for (int32_t t : ed.at(v)) visit.push_back(t);
+            std::sort(visit.begin(), visit.end());
+            visit.erase(std::unique(visit.begin(), visit.end()), visit.end());
+        }
+        seen = ed.size();
+        moved.clear();
+        std::vector<BadFace> found;
+        for (int32_t t : visit) {
             const Tet tet = ed.tet(t);
             for (int k = 0; k < 4; ++k) {
                 Few<int32_t, 2> two;
                 if (!ed.tets_at(two, tet[(k + 1) % 4], tet[(k + 2) % 4], tet[(k + 3) % 4]) || two.size() != 2) continue;
                 const int32_t u = two[0] == t ? two[1] : two[0];
-                if (u > t && face_cosine(t, u) < bound) bad.push_back({t, u});
+                if (u > t) {
+                    if (face_cosine(t, u) < bound) found.push_back({t, k, u});
+                } else {
+                    // The face as the lower tet's, u's corner off it.
+                    const Tet& other = ed.tet(u);
+                    int j = 0;
+                    while (TetEditor::contains(tet, other[j])) ++j;
+                    if (face_cosine(u, t) < bound) found.push_back({u, j, t});
+                }
             }
         }
+        std::sort(found.begin(), found.end(), [](const BadFace& a, const BadFace& b) {
+            return a.t != b.t ? a.t < b.t : a.k < b.k;
+        });
+        found.erase(std::unique(found.begin(), found.end(),
+                                [](const BadFace& a, const BadFace& b) { return a.t == b.t && a.k == b.k; }),
+                    found.end());
+        bad = std::move(found);
+    };
+    for (int sweep = 0; sweep < sweeps; ++sweep) {
+        scan();
         if (sweep == 0) counts.faces_before = static_cast<int64_t>(bad.size());
         int64_t changed = 0;
-        for (const auto& [t, u] : bad) {
+        for (const auto& [t, k, u] : bad) {
             if (!ed.alive(t) || !ed.alive(u) || !(face_cosine(t, u) < bound)) continue;
             if (flipper.improve_tet(t, flips, true) || flipper.improve_tet(u, flips, true)) {
                 ++changed;
@@ -1477,7 +1541,7 @@ OrthoCounts improve_orthogonality(TetMesh& mesh, int32_t surface_points, double 
             for (const Tet& tet : {first, second})
                 for (int32_t v : tet)
                     if (!pinned[v] && orthogonalize_point(ed, v, size_t(v) < layers.size() ? layers[v] : LayerBound{}, floors))
-                        ++counts.moves, ++changed;
+                        ++counts.moves, ++changed, moved.push_back(v);
         }
         if (changed == 0) break;
     }
@@ -1624,11 +1688,35 @@ DihedralCounts raise_dihedral_angles(TetMesh& mesh, int32_t surface_points, doub
         const Tet& x = ed.tet(t);
         return tet_min_dihedral_deg(ed.point(x[0]), ed.point(x[1]), ed.point(x[2]), ed.point(x[3]));
     };
+    // The living tets below the target, in id order. The first call looks
+    // at every tet; a later one only at those whose angles can have changed
+    // since: the tets made since (ids from `seen` on), those at the points
+    // moved since, and the ones found below then.
+    std::vector<int32_t> last_poor, moved;
+    size_t seen = 0;
     const auto poor_tets = [&] {
-        std::vector<int32_t> poor;
-        for (size_t i = 0; i < ed.size(); ++i)
-            if (ed.alive(int32_t(i)) && dihedral(int32_t(i)) < target_deg) poor.push_back(int32_t(i));
-        return poor;
+        std::vector<int32_t> visit;
+        if (seen == 0) {
+            // Every tet, its angles in parallel (reading only).
+            const std::vector<char> below = parallel_marks(0, ed.size(), [&](size_t i) {
+                return ed.alive(int32_t(i)) && dihedral(int32_t(i)) < target_deg;
+            });
+            for (size_t i = 0; i < ed.size(); ++i)
+                if (below[i]) visit.push_back(int32_t(i));
+        } else {
+            visit = last_poor;
+            for (size_t i = seen; i < ed.size(); ++i) visit.push_back(int32_t(i));
+            for (int32_t v : moved)
+                for (int32_t t : ed.at(v)) visit.push_back(t);
+            std::sort(visit.begin(), visit.end());
+            visit.erase(std::unique(visit.begin(), visit.end()), visit.end());
+        }
+        seen = ed.size();
+        moved.clear();
+        last_poor.clear();
+        for (int32_t t : visit)
+            if (ed.alive(t) && dihedral(t) < target_deg) last_poor.push_back(t);
+        return last_poor;
     };
     // Flips at the tet, then at the tets around its edges, then moves of its
     // free points; true when something changed.
@@ -1646,7 +1734,7 @@ DihedralCounts raise_dihedral_angles(TetMesh& mesh, int32_t surface_points, doub
         for (int32_t v : tet)
             if (ed.alive(t) && !is_pinned(v) &&
                 raise_point_dihedral(ed, v, size_t(v) < layers.size() ? layers[v] : LayerBound{}, floors))
-                ++counts.moves, changed = true;
+                ++counts.moves, changed = true, moved.push_back(v);
         return changed;
     };
     for (int sweep = 0; sweep < sweeps; ++sweep) {

@@ -438,6 +438,7 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
         // tets below kDihedralTarget, before and after the orthogonality pass
         // (each keeps what the other has reached).
         constexpr double kDihedralTarget = 12.0; // degrees, a margin over 10
+        const auto cell_passes = Clock::now();
         const DihedralCounts dihedral = raise_dihedral_angles(mesh, n, kDihedralTarget, 8, held);
         result.dihedral_tets_before = dihedral.tets_before;
         // OpenFOAM's solvers want face non-orthogonality below 70 degrees:
@@ -475,6 +476,7 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
             result.dihedral_flips += again.flips, result.dihedral_moves += again.moves;
             result.dihedral_splits += again.splits;
         }
+        result.seconds_cell_passes = seconds_since(cell_passes);
         attribute_new_points(result, n);
         result.seconds_slivers = seconds_since(t0);
         t0 = Clock::now();
