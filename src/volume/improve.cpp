@@ -1372,6 +1372,24 @@ int64_t split_surface_slivers(TetMesh& mesh, int32_t surface_points, double thre
 
 namespace {
 
+// The tets a pass looks at again after its first look: `visit` (what it
+// found then) with the living tets made since (ids from `seen` on) and the
+// tets at the points moved since, sorted, each once; `seen` and `moved`
+// then start over. A tet in none of these has the same points at the same
+// places as at the last look, so the same verdict.
+std::vector<int32_t> changed_since(TetEditor& ed, std::vector<int32_t> visit, size_t& seen, std::vector<int32_t>& moved)
+{
+    for (size_t i = seen; i < ed.size(); ++i)
+        if (ed.alive(int32_t(i))) visit.push_back(int32_t(i));
+    for (int32_t v : moved)
+        for (int32_t t : ed.at(v)) visit.push_back(t);
+    std::sort(visit.begin(), visit.end());
+    visit.erase(std::unique(visit.begin(), visit.end()), visit.end());
+    seen = ed.size();
+    moved.clear();
+    return visit;
+}
+
 // Moves interior point v to lower the worst face non-orthogonality of the
 // faces of its star: a line search along the gradient of that worst
 // cosine, and toward the star's centroid, a layer point within its ball.
@@ -1472,19 +1490,11 @@ OrthoCounts improve_orthogonality(TetMesh& mesh, int32_t surface_points, double 
                 return a.t != b.t ? a.t < b.t : a.k < b.k;
             });
             return;
-        } else {
-            for (const BadFace& f : bad)
-                for (int32_t t : {f.t, f.u})
-                    if (ed.alive(t)) visit.push_back(t);
-            for (size_t i = seen; i < ed.size(); ++i)
-                if (ed.alive(int32_t(i))) visit.push_back(int32_t(i));
-            for (int32_t v : moved)
-                for (int32_t t : ed.at(v)) visit.push_back(t);
-            std::sort(visit.begin(), visit.end());
-            visit.erase(std::unique(visit.begin(), visit.end()), visit.end());
         }
-        seen = ed.size();
-        moved.clear();
+        for (const BadFace& f : bad)
+            for (int32_t t : {f.t, f.u})
+                if (ed.alive(t)) visit.push_back(t);
+        visit = changed_since(ed, std::move(visit), seen, moved);
         std::vector<BadFace> found;
         for (int32_t t : visit) {
             const Tet tet = ed.tet(t);
@@ -1703,16 +1713,10 @@ DihedralCounts raise_dihedral_angles(TetMesh& mesh, int32_t surface_points, doub
             });
             for (size_t i = 0; i < ed.size(); ++i)
                 if (below[i]) visit.push_back(int32_t(i));
+            seen = ed.size();
         } else {
-            visit = last_poor;
-            for (size_t i = seen; i < ed.size(); ++i) visit.push_back(int32_t(i));
-            for (int32_t v : moved)
-                for (int32_t t : ed.at(v)) visit.push_back(t);
-            std::sort(visit.begin(), visit.end());
-            visit.erase(std::unique(visit.begin(), visit.end()), visit.end());
+            visit = changed_since(ed, last_poor, seen, moved);
         }
-        seen = ed.size();
-        moved.clear();
         last_poor.clear();
         for (int32_t t : visit)
             if (ed.alive(t) && dihedral(t) < target_deg) last_poor.push_back(t);
