@@ -458,7 +458,7 @@ def main():
     ap.add_argument("--workdir", default="/tmp/scalemesh-validation")
     ap.add_argument("--M", type=float, nargs="+", default=DEFAULT_M)
     ap.add_argument("--h", type=float, nargs="+", default=DEFAULT_H)
-    ap.add_argument("--quick", action="store_true", help="CI check: M = %d only, assert WSS within 5%%" % QUICK_M)
+    ap.add_argument("--quick", action="store_true", help=f"CI check: M = {QUICK_M} only, assert WSS within 5%%")
     ap.add_argument("--from-json", help="rewrite the page from a results.json, running nothing")
     ap.add_argument("--tolerance", type=float, default=0.05)
     ap.add_argument("--grad", help="gradSchemes default for every case (e.g. pointCellsLeastSquares) instead of "
