@@ -172,6 +172,7 @@ std::string case_text(const Settings& s, double h, int threads)
     toml.precision(17);
     toml << "[input]\nphantom = \"" << s.shape << "\"\nvoxel_size = " << h << "\n"
          << "[sizing]\nL_min = \"0.5 voxels\"\nL_max = \"" << s.L_max_voxels << " voxels\"\n"
+         << "[volume]\nmin_dihedral_deg = 10\n"
          << "[output]\nsurface = []\nvolume = [\"mesh.msh\"]\nopenfoam = false\nmsh_binary = true\n"
          << "[run]\nthreads = " << threads << "\n";
     return toml.str();
@@ -223,7 +224,12 @@ json measure_pipeline(const Settings& s, int box, int threads, bool references, 
     int retries = 0;
     {
         const auto start = Clock::now();
-        last = run_case(dir);
+        // run_case's memory bound: the machine's memory (0), or
+        // --max-memory-gib where that is more (its estimate is conservative
+        // at the largest boxes, as scalemesh --max-memory).
+        const double asked = s.max_memory_gib * (1 << 30);
+        const double machine = double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGE_SIZE));
+        last = run_case(dir, {}, std::nullopt, asked > machine ? static_cast<int64_t>(asked) : 0);
         const double total = seconds_since(start);
         std::map<std::string, double> stage;
         for (const StageTime& t : last.run.stages) {
@@ -253,6 +259,18 @@ json measure_pipeline(const Settings& s, int box, int threads, bool references, 
     out["tets"] = last.run.volume->mesh.tets.size();
     out["points"] = last.run.volume->mesh.points.size();
     out["volume_retries"] = retries;
+    {
+        const VolumeResult& v = *last.run.volume;
+        const QualityReport& q = v.after_slivers;
+        out["quality"] = {{"min_aspect_ratio", q.min_aspect_ratio},
+                          {"fraction_below_0_1", q.fraction_below_0_1},
+                          {"below_0_02", q.below_0_02},
+                          {"min_dihedral_deg", q.min_dihedral_deg},
+                          {"max_non_orthogonality_deg", v.max_non_orthogonality_deg},
+                          {"layer_coverage", v.layers.coverage()},
+                          {"released_layer_points", v.released_layer_points}};
+        out["warnings"] = last.warnings; // the floors the run missed
+    }
     for (const auto& [name, values] : samples) {
         out["seconds"][name] = median(values);
         out["samples"][name] = values;
@@ -488,6 +506,30 @@ std::string markdown(const Settings& s, const json& result)
     for (const json& size : result["skipped"])
         md << "\nNot run: " << size["box_text"].get<std::string>() << ", " << size["reason"].get<std::string>() << ".\n";
 
+    md << "\n## Mesh quality\n\n"
+       << "The last run's mesh of each box, against the floors every run checks (`floor_warnings`: no tet below "
+       << "aspect ratio 0.1, 99% of the wall nodes with D >= L_min keeping all their layers, and here "
+       << "`min_dihedral_deg = 10`) and OpenFOAM's non-orthogonality bound of 70 degrees (measured on the "
+       << "mesh as `checkMesh` measures it). *Released*: layer points let off their layers where a cell "
+       << "still missed 10 degrees or 70.\n\n"
+       << "| box | threads | tets | worst aspect ratio | below 0.1 | below 0.02 | smallest dihedral (deg) | "
+          "largest non-orthogonality (deg) | layer coverage | released | floors |\n"
+       << "|---|---|---|---|---|---|---|---|---|---|---|\n";
+    for (const json& size : sizes)
+        for (const json& run : size["runs"]) {
+            if (run.contains("error") || !run.contains("quality")) continue;
+            const json& q = run["quality"];
+            std::string floors = q["max_non_orthogonality_deg"].get<double>() < 70 ? "" : "a face beyond 70 degrees";
+            for (const json& w : run["warnings"]) floors += (floors.empty() ? "" : "; ") + w.get<std::string>();
+            md << "| " << box_label(s, size) << " | " << run["threads"] << " | " << run["tets"] << " | "
+               << fixed(q["min_aspect_ratio"].get<double>(), 4) << " | "
+               << fixed(100 * q["fraction_below_0_1"].get<double>(), 4) << "% | " << q["below_0_02"] << " | "
+               << fixed(q["min_dihedral_deg"].get<double>(), 2) << " | "
+               << fixed(q["max_non_orthogonality_deg"].get<double>(), 3) << " | "
+               << fixed(100 * q["layer_coverage"].get<double>(), 2) << "% | " << q["released_layer_points"] << " | "
+               << (floors.empty() ? "met" : "**missed**: " + floors) << " |\n";
+        }
+
     md << "\n## Against the references\n\n"
        << "Ratio = ours / reference on the same input (above 1: we are slower). Isosurface: OpenVDB "
        << "`volumeToMesh` on the same label grid, on the same thread count. Remeshing: CGAL "
@@ -698,7 +740,10 @@ int main(int argc, char** argv)
     app.add_option("--threads", threads, "thread counts, comma separated, fewest first")->capture_default_str();
     app.add_option("--repeats", s.repeats, "runs per figure; the median is reported")->capture_default_str()->check(CLI::PositiveNumber);
     app.add_option("--L-max-voxels", s.L_max_voxels, "L_max in voxel widths")->capture_default_str();
-    app.add_option("--max-memory-gib", s.max_memory_gib, "skip a size whose predicted peak is above this")->capture_default_str();
+    app.add_option("--max-memory-gib", s.max_memory_gib,
+                   "skip a size whose predicted peak is above this; above the machine's memory, also the runs' own "
+                   "bound (scalemesh --max-memory)")
+        ->capture_default_str();
     app.add_flag("!--no-mesh-3", s.mesh_3, "skip the CGAL Mesh_3 reference");
     app.add_option("--mesh-3-max-box", s.mesh_3_max_box, "largest box to run Mesh_3 on")->capture_default_str();
     app.add_flag("!--no-snappy", s.snappy, "skip the snappyHexMesh reference");

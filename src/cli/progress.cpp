@@ -153,8 +153,11 @@ void ProgressDisplay::summary(const CaseConfig& config, const CaseResult& result
         if (a.opening_nodes)
             std::fprintf(o, "; %lld opening nodes (cap rings carry their layers)", static_cast<long long>(a.opening_nodes));
         std::fprintf(o, "\n");
-        std::fprintf(o, "  quality   worst aspect ratio %.4f, mean %.4f, %.3f%% below 0.1, smallest dihedral angle %.2f deg\n",
-                     q.min_aspect_ratio, q.mean_aspect_ratio, 100 * q.fraction_below_0_1, q.min_dihedral_deg);
+        std::fprintf(o,
+                     "  quality   worst aspect ratio %.4f, mean %.4f, %.3f%% below 0.1, smallest dihedral angle %.2f deg, "
+                     "largest non-orthogonality %.3f deg\n",
+                     q.min_aspect_ratio, q.mean_aspect_ratio, 100 * q.fraction_below_0_1, q.min_dihedral_deg,
+                     v.max_non_orthogonality_deg);
         if (verbosity_ == Verbosity::Verbose) {
             const auto phase = [o](const char* name, const QualityReport& r) {
                 std::fprintf(o, "            %-21s %9lld tets, worst %.4f, %.3f%% below 0.1, %lld below 0.02\n", name,

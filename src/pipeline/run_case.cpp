@@ -299,6 +299,7 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
                             {"boundary_matches_surface", facts.boundary_matches},
                             {"nonpositive_tets", facts.nonpositive_tets},
                             {"first_layer_anisotropy_median", v.first_layer_anisotropy_median},
+                            {"max_non_orthogonality_deg", v.max_non_orthogonality_deg},
                             {"inserted_points", v.inserted_points},
                             {"deferred_points", v.deferred_points},
                             {"offset_points", v.offset_points},

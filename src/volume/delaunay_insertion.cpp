@@ -96,6 +96,7 @@ struct Scratch {
     Cell_handle hint;
     std::vector<Facet> boundary;
     std::vector<Cell_handle> cells, touched, removed, kept;
+    bool tiny = false; // the last shrink took out a cell for a tiny tet
     std::minstd_rand random;
 };
 
@@ -622,10 +623,11 @@ private:
     // The cavity must be star-shaped from the point, and (i) no new tet
     // (the point joined to a boundary facet of the cavity) may have a volume
     // below min_volume_fraction * spacing^3 (a sliver the flips could not
-    // repair). A cell whose boundary facet breaks either is taken out of the
-    // cavity, with whatever then hangs on it only through it, until the
-    // cavity is good; the point is refused when that would take out the
-    // cell holding it. Such a cell stays though the point is in its
+    // repair). For a layermaking point, a cell whose boundary facet breaks
+    // either is taken out of the cavity, with whatever then hangs on it only
+    // through it, until the cavity is good; the point is refused when that
+    // would take out the cell holding it. A filler is refused at the first
+    // such cell, as the paper says. Such a cell stays though the point is in its
     // circumsphere: the inside is then no longer exactly Delaunay, which
     // the flips of section 2.4 are there to repair. A new tet holding a
     // protected quad diagonal is kept out the same way. Refused as well: a
@@ -715,6 +717,14 @@ private:
         for (int round = 0;; ++round) {
             const bool shrunk = shrink_cavity(p, c, limit, verdict, own);
             if (verdict != Verdict::inserted) break;
+            // A filler is refused rather than its cavity shrunk (the
+            // paper's rule (i)): fillers only fill, and every cell a shrink
+            // keeps in conflict makes the next layer's cavities larger and
+            // less often star-shaped.
+            if (shrunk && op.filler) {
+                verdict = own.tiny ? Verdict::small : Verdict::hidden;
+                break;
+            }
             if (!shrunk) {
                 verdict = check_cavity(op, own);
                 break;
@@ -756,6 +766,7 @@ private:
         own.boundary.clear();
         own.removed.clear();
         bool start_tiny = false; // the holding cell goes for the volume floor alone
+        own.tiny = false;
         for (const Cell_handle& cc : cells) {
             bool bad = false;
             for (int j = 0; j < 4; ++j) {
@@ -778,8 +789,10 @@ private:
                 // without one, the exact predicate decides.
                 bad = v6 < limit || (limit <= 0 && CGAL::orientation(*q[0], *q[1], *q[2], *q[3]) != CGAL::POSITIVE);
                 // Seen from the point but below the floor: a tiny tet, (i).
-                if (bad && cc == start && limit > 0 && CGAL::orientation(*q[0], *q[1], *q[2], *q[3]) == CGAL::POSITIVE)
-                    start_tiny = true;
+                if (bad && limit > 0 && CGAL::orientation(*q[0], *q[1], *q[2], *q[3]) == CGAL::POSITIVE) {
+                    own.tiny = true;
+                    start_tiny = start_tiny || cc == start;
+                }
             }
             if (bad) own.removed.push_back(cc);
         }

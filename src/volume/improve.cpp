@@ -18,6 +18,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 namespace scalemesh {
 namespace {
@@ -219,9 +220,21 @@ double volume_floor6(const TetEditor& ed, const Tets& tets)
     return 1e-12 * l2 * std::sqrt(l2);
 }
 
-Vec3 centroid(const TetEditor& ed, const Tet& t)
+// The cosine of OpenFOAM's non-orthogonality of the face of tet t opposite
+// its corner k, shared with the tet `other`: the face's normal (out of t)
+// against the join of the two centroids, points read through at(id); -2
+// (below any cosine) when the face or the join is degenerate. The one
+// measure of the passes below and of points_missing_floors.
+template <class At>
+double face_cosine(const At& at, const Tet& t, int k, const Tet& other)
 {
-    return 0.25 * (ed.point(t[0]) + ed.point(t[1]) + ed.point(t[2]) + ed.point(t[3]));
+    const auto centre = [&](const Tet& x) { return 0.25 * (at(x[0]) + at(x[1]) + at(x[2]) + at(x[3])); };
+    const Vec3& a = at(t[(k + 1) % 4]);
+    Vec3 normal = cross(at(t[(k + 2) % 4]) - a, at(t[(k + 3) % 4]) - a);
+    if (dot(normal, at(t[k]) - a) > 0) normal = -normal; // out of t
+    const Vec3 join = centre(other) - centre(t);
+    const double scale = norm(normal) * norm(join);
+    return scale > 0 ? dot(normal, join) / scale : -2;
 }
 
 // An interior face of tets[i] (the face opposite its corner k) and the tet
@@ -269,17 +282,12 @@ template <class Tets>
 double worst_cosine(const TetEditor& ed, const Tets& tets, const std::vector<FaceLink>& links)
 {
     double worst = 1;
+    const auto at = [&](int32_t v) -> const Vec3& { return ed.point(v); };
     for (const FaceLink& link : links) {
-        const Tet& t = tets[link.i];
-        const int k = link.k;
-        const int32_t a = t[(k + 1) % 4], b = t[(k + 2) % 4], d = t[(k + 3) % 4];
-        const Vec3 other = centroid(ed, link.inside >= 0 ? tets[link.inside] : ed.tet(link.outside));
-        Vec3 normal = cross(ed.point(b) - ed.point(a), ed.point(d) - ed.point(a));
-        if (dot(normal, ed.point(t[k]) - ed.point(a)) > 0) normal = -normal; // out of t
-        const Vec3 join = other - centroid(ed, t);
-        const double scale = norm(normal) * norm(join);
-        if (!(scale > 0)) return -1;
-        worst = std::min(worst, dot(normal, join) / scale);
+        const Tet& other = link.inside >= 0 ? tets[link.inside] : ed.tet(link.outside);
+        const double cosine = face_cosine(at, tets[link.i], link.k, other);
+        if (cosine < -1.5) return -1;
+        worst = std::min(worst, cosine);
     }
     return worst;
 }
@@ -1464,6 +1472,7 @@ OrthoCounts improve_orthogonality(TetMesh& mesh, int32_t surface_points, double 
     struct BadFace {
         int32_t t, k, u;
     };
+    const auto face_order = [](const BadFace& a, const BadFace& b) { return a.t != b.t ? a.t < b.t : a.k < b.k; };
     std::vector<BadFace> bad;
     std::vector<int32_t> moved;
     size_t seen = 0;
@@ -1486,9 +1495,7 @@ OrthoCounts improve_orthogonality(TetMesh& mesh, int32_t surface_points, double 
             });
             bad.clear();
             for (const auto& part : local) bad.insert(bad.end(), part.begin(), part.end());
-            std::sort(bad.begin(), bad.end(), [](const BadFace& a, const BadFace& b) {
-                return a.t != b.t ? a.t < b.t : a.k < b.k;
-            });
+            std::sort(bad.begin(), bad.end(), face_order);
             return;
         }
         for (const BadFace& f : bad)
@@ -1513,9 +1520,7 @@ OrthoCounts improve_orthogonality(TetMesh& mesh, int32_t surface_points, double 
                 }
             }
         }
-        std::sort(found.begin(), found.end(), [](const BadFace& a, const BadFace& b) {
-            return a.t != b.t ? a.t < b.t : a.k < b.k;
-        });
+        std::sort(found.begin(), found.end(), face_order);
         found.erase(std::unique(found.begin(), found.end(),
                                 [](const BadFace& a, const BadFace& b) { return a.t == b.t && a.k == b.k; }),
                     found.end());
@@ -1773,6 +1778,60 @@ DihedralCounts raise_dihedral_angles(TetMesh& mesh, int32_t surface_points, doub
     counts.flips = flips.total();
     ed.commit();
     return counts;
+}
+
+std::vector<int32_t> points_missing_floors(const TetMesh& mesh, int32_t surface_points, double dihedral_floor,
+                                           double ortho_bound)
+{
+    const auto& x = mesh.points;
+    const auto at = [&](int32_t v) -> const Vec3& { return x[v]; };
+    const double bound = std::cos(ortho_bound * M_PI / 180);
+    const TetFaceAdjacency adjacency = tet_face_adjacency(mesh);
+    // A tet is marked for its own angle or for any of its interior faces,
+    // each face measured from its lower tet as the passes measure it.
+    const std::vector<char> marked = parallel_marks(0, mesh.tets.size(), [&](size_t i) {
+        const Tet& t = mesh.tets[i];
+        if (tet_min_dihedral_deg(x[t[0]], x[t[1]], x[t[2]], x[t[3]]) < dihedral_floor) return true;
+        for (int k = 0; k < 4; ++k) {
+            const int32_t u = adjacency.across[4 * i + k];
+            if (u < 0) continue; // boundary or overshared
+            const Tet& other = mesh.tets[u];
+            if (u > static_cast<int32_t>(i)) {
+                if (face_cosine(at, t, k, other) < bound) return true;
+            } else {
+                int j = 0;
+                while (TetEditor::contains(t, other[j])) ++j; // u's corner off the face
+                if (face_cosine(at, other, j, t) < bound) return true;
+            }
+        }
+        return false;
+    });
+    std::vector<int32_t> out;
+    for (size_t t = 0; t < mesh.tets.size(); ++t)
+        if (marked[t])
+            for (int32_t v : mesh.tets[t])
+                if (v >= surface_points) out.push_back(v);
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+    return out;
+}
+
+double max_non_orthogonality_deg(const TetMesh& mesh, const TetFaceAdjacency& adjacency)
+{
+    const auto at = [&](int32_t v) -> const Vec3& { return mesh.points[v]; };
+    const double worst = tbb::parallel_reduce(
+        tbb::blocked_range<size_t>(0, mesh.tets.size(), 1 << 13), 1.0,
+        [&](const tbb::blocked_range<size_t>& range, double lowest) {
+            for (size_t i = range.begin(); i != range.end(); ++i)
+                for (int k = 0; k < 4; ++k) {
+                    const int32_t u = adjacency.across[4 * i + k];
+                    if (u > static_cast<int32_t>(i)) // each interior face once
+                        lowest = std::min(lowest, face_cosine(at, mesh.tets[i], k, mesh.tets[u]));
+                }
+            return lowest;
+        },
+        [](double a, double b) { return std::min(a, b); });
+    return std::acos(std::clamp(worst, -1.0, 1.0)) * 180 / M_PI;
 }
 
 } // namespace scalemesh

@@ -161,4 +161,21 @@ struct DihedralCounts {
 DihedralCounts raise_dihedral_angles(TetMesh& mesh, int32_t surface_points, double target_deg, int sweeps,
                                      const std::vector<LayerBound>& layers = {});
 
+// The interior points (ids from surface_points on) of the cells a
+// finite-volume solver would still object to: the tets whose smallest
+// dihedral angle is below `dihedral_floor` degrees, and both tets of each
+// interior face whose non-orthogonality (the angle between the face's
+// normal and the join of the two tets' centroids, as OpenFOAM measures it)
+// is above `ortho_bound` degrees. Sorted, each once. The same measures as
+// the two passes above (they take what this finds); the tets are looked at
+// in parallel.
+std::vector<int32_t> points_missing_floors(const TetMesh& mesh, int32_t surface_points, double dihedral_floor,
+                                           double ortho_bound);
+
+// The largest face non-orthogonality over the interior faces of `mesh`
+// (`adjacency` its tet_face_adjacency), in degrees, measured as the passes
+// above and OpenFOAM's checkMesh measure it; 0 without interior faces, 180
+// for a degenerate face. In parallel, the same on any number of threads.
+double max_non_orthogonality_deg(const TetMesh& mesh, const TetFaceAdjacency& adjacency);
+
 } // namespace scalemesh

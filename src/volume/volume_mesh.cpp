@@ -118,43 +118,6 @@ void attribute_new_points(VolumeResult& result, int32_t n)
     }
 }
 
-// The interior points (ids from surface_points on) of the cells a
-// finite-volume solver would still object to: the tets whose smallest
-// dihedral angle is below `dihedral_floor` degrees, and both tets of each
-// interior face whose non-orthogonality (the angle between the face's
-// normal and the join of the two tets' centroids, as OpenFOAM measures it)
-// is above `ortho_bound` degrees. Sorted, each once.
-std::vector<int32_t> points_missing_floors(const TetMesh& mesh, int32_t surface_points, double dihedral_floor,
-                                           double ortho_bound)
-{
-    const auto& x = mesh.points;
-    std::vector<char> marked(mesh.tets.size(), 0);
-    for (size_t t = 0; t < mesh.tets.size(); ++t) {
-        const Tet& a = mesh.tets[t];
-        if (tet_min_dihedral_deg(x[a[0]], x[a[1]], x[a[2]], x[a[3]]) < dihedral_floor) marked[t] = 1;
-    }
-    const double bound = std::cos(ortho_bound * M_PI / 180);
-    const TetFaceAdjacency adjacency = tet_face_adjacency(mesh);
-    auto centroid = [&](const Tet& a) { return 0.25 * (x[a[0]] + x[a[1]] + x[a[2]] + x[a[3]]); };
-    for (size_t t = 0; t < mesh.tets.size(); ++t)
-        for (int k = 0; k < 4; ++k) {
-            const int32_t u = adjacency.across[4 * t + k];
-            if (u <= static_cast<int32_t>(t)) continue; // each interior face once (boundary and overshared: < 0)
-            const Triangle f = tet_face(mesh.tets[t], k);
-            const Vec3 normal = normalized(cross(x[f[1]] - x[f[0]], x[f[2]] - x[f[0]]));
-            const Vec3 join = normalized(centroid(mesh.tets[u]) - centroid(mesh.tets[t]));
-            if (dot(normal, join) < bound) marked[t] = marked[u] = 1;
-        }
-    std::vector<int32_t> out;
-    for (size_t t = 0; t < mesh.tets.size(); ++t)
-        if (marked[t])
-            for (int32_t v : mesh.tets[t])
-                if (v >= surface_points) out.push_back(v);
-    std::sort(out.begin(), out.end());
-    out.erase(std::unique(out.begin(), out.end()), out.end());
-    return out;
-}
-
 // The layer bounds `layers` with the stand-ins held: a layer point (bound
 // by layers[p]) within `tolerance` of its spacing of the place of a
 // layermaking point of its layer that the interior-point filter took out
@@ -511,6 +474,7 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
                                             list_ids(failures) + "). Refine the surface there and re-run",
                                         {}, failures);
     }
+    result.max_non_orthogonality_deg = max_non_orthogonality_deg(mesh, result.adjacency);
     result.seconds_checks = seconds_since(t0);
     result.seconds_total = seconds_since(start);
     return result;

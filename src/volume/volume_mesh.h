@@ -103,6 +103,7 @@ struct VolumeResult {
     double seconds_points = 0, seconds_insertion = 0, seconds_classify = 0, seconds_flips = 0,
            seconds_slivers = 0, seconds_quality = 0, seconds_checks = 0, seconds_total = 0;
     double seconds_cell_passes = 0; // of seconds_slivers: the dihedral and non-orthogonality passes
+    double max_non_orthogonality_deg = 0; // of the final mesh's interior faces, as checkMesh measures it
 };
 
 // Thrown when the mesh cannot conform to the surface: some surface triangles

@@ -259,6 +259,46 @@ TEST(KernelEdgeRemoval, AnEdgeWithSevenTetsIsReplacedByTheBestOfItsTriangulation
     expect_edge_removed(7, 3.004, 10.0, 17.504, 13.619); // 42 triangulations, 23 without an inverted tet
 }
 
+// ---- Face non-orthogonality ---------------------------------------------
+
+// Two tets on the triangle (0,0,0), (1,0,0), (0,1,0), their apexes (0,0,1)
+// and (x,0,-1): the centroids' join is ((x/4), 0, -1/2) against the face's
+// normal (0, 0, -1), so the face's non-orthogonality is atan(x/2).
+TetMesh two_tets_over_a_triangle(double x)
+{
+    return tet_mesh({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {x, 0, -1}}, {{0, 1, 2, 3}, {0, 1, 2, 4}});
+}
+
+TEST(KernelNonOrthogonality, TheLargestAngleIsTheSharedFacesAsCheckMeshMeasuresIt)
+{
+    for (double x : {0.0, 2.0, 6.0}) {
+        const TetMesh mesh = two_tets_over_a_triangle(x);
+        EXPECT_NEAR(max_non_orthogonality_deg(mesh, tet_face_adjacency(mesh)), std::atan(x / 2) * 180 / M_PI, 1e-9)
+            << "apex at x = " << x;
+    }
+    // One tet has no interior face.
+    const TetMesh one = tet_mesh({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, {{0, 1, 2, 3}});
+    EXPECT_EQ(max_non_orthogonality_deg(one, tet_face_adjacency(one)), 0);
+}
+
+// The release's finder marks both tets of a face beyond the bound (71.6
+// degrees at x = 6) and neither below it (45 degrees at x = 2); the dihedral
+// floor alone marks the flat tet.
+TEST(KernelNonOrthogonality, PointsMissingFloorsAreThePointsOfTheCellsBeyondTheBounds)
+{
+    const TetMesh within = two_tets_over_a_triangle(2);
+    EXPECT_TRUE(points_missing_floors(within, 0, 0.0, 70.0).empty());
+    const TetMesh beyond = two_tets_over_a_triangle(6);
+    EXPECT_EQ(points_missing_floors(beyond, 0, 0.0, 70.0), (std::vector<int32_t>{0, 1, 2, 3, 4}));
+    EXPECT_EQ(points_missing_floors(beyond, 3, 0.0, 70.0), (std::vector<int32_t>{3, 4})) << "surface points listed";
+    // With the angle bound out of reach, only a tet below the dihedral floor
+    // is marked: the second tet, stretched to x = 6, has the smaller angle.
+    const auto [first, second] = std::pair{tet_min_dihedral_deg({0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}),
+                                           tet_min_dihedral_deg({0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {6, 0, -1})};
+    ASSERT_LT(second, first);
+    EXPECT_EQ(points_missing_floors(beyond, 0, 0.5 * (first + second), 180.0), (std::vector<int32_t>{0, 1, 2, 4}));
+}
+
 // ---- Conditional insertion (Algorithm 5) ---------------------------------
 
 // A closed tetrahedron surface: the equilateral triangle c0 c1 c2 in z = 0
@@ -411,6 +451,58 @@ TEST(KernelInsertion, AFillerPointAwayFromTheSurfaceIsInserted)
             for (int32_t v : t) EXPECT_GE(v, 4) << "the filler point is joined to surface point " << v;
         }
     EXPECT_EQ(around, 4);
+}
+
+// Eleven layermaking points about the tetrahedron's middle and a point p
+// among them (a configuration found by a search over random ones, on a
+// 0.001 grid). Inserting p, one cell of its Delaunay cavity, not the one
+// holding p, has a boundary facet that would make a tet below the floor
+// (min_volume_fraction 0.02 of spacing^3). A layermaking point at p goes in
+// with that cell taken out of its cavity (kept, though p is in its
+// circumsphere); a filler at p is refused instead, as the paper's rule (i)
+// says: fillers only fill, and on the torus of a 1152 box the cells such
+// shrinks kept made each next layer's cavities larger and less often
+// star-shaped, until a quarter of the tets were below aspect ratio 0.1.
+TEST(KernelInsertion, AFillerIsRefusedWhereALayerPointWouldHaveItsCavityShrunk)
+{
+    const SurfaceMesh s = tetrahedron_surface();
+    std::vector<OffsetPoint> points;
+    for (const Vec3& x : std::vector<Vec3>{{0.482, 0.399, 0.286}, {0.604, 0.243, 0.247}, {0.526, 0.218, 0.124},
+                                           {0.452, 0.298, 0.166}, {0.496, 0.377, 0.276}, {0.511, 0.212, 0.252},
+                                           {0.568, 0.274, 0.282}, {0.474, 0.392, 0.096}, {0.498, 0.378, 0.289},
+                                           {0.571, 0.290, 0.281}, {0.497, 0.372, 0.264}})
+        points.push_back(layer_point(s, 3, x, 0.05));
+    const Vec3 p{0.494, 0.259, 0.202};
+    const InsertionParams params = floor_params(0.02, 0); // no retry along the normal
+    auto with = [&](const OffsetPoint& last, const InsertionParams& with_params) {
+        std::vector<OffsetPoint> all = points;
+        all.push_back(last);
+        const InsertionResult r = insert_and_classify(s, all, with_params);
+        EXPECT_EQ(r.fates.size(), all.size());
+        for (size_t k = 0; k + 1 < all.size(); ++k) EXPECT_EQ(r.fates[k], InsertionFate::inserted) << "layer point " << k;
+        return r;
+    };
+
+    const InsertionResult layer = with(layer_point(s, 3, p, 0.05), params);
+    ASSERT_EQ(layer.fates.size(), 12u);
+    EXPECT_EQ(layer.fates[11], InsertionFate::inserted);
+    EXPECT_EQ(std::count(layer.points.begin(), layer.points.end(), p), 1) << "not inserted at its place";
+    EXPECT_GE(smallest_volume(layer), 0.02 * 0.05 * 0.05 * 0.05) << "a tet below the floor was made";
+
+    const InsertionResult filler = with(filler_point(s, 3, p, 2, 0.05), params);
+    ASSERT_EQ(filler.fates.size(), 12u);
+    EXPECT_EQ(filler.fates[11], InsertionFate::tiny_tet);
+    EXPECT_EQ(filler.rejected_small, 1);
+    EXPECT_EQ(filler.inserted, 11);
+    EXPECT_EQ(std::count(filler.points.begin(), filler.points.end(), p), 0);
+
+    // Without the floor the filler goes in: the tiny tet refused it, not a
+    // surface point (rule (ii)) or the cell holding it.
+    InsertionParams no_floor = params;
+    no_floor.min_volume_fraction = 0;
+    const InsertionResult free = with(filler_point(s, 3, p, 2, 0.05), no_floor);
+    ASSERT_EQ(free.fates.size(), 12u);
+    EXPECT_EQ(free.fates[11], InsertionFate::inserted);
 }
 
 } // namespace
