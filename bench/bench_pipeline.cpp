@@ -510,8 +510,8 @@ std::string markdown(const Settings& s, const json& result)
        << "The last run's mesh of each box, against the floors every run checks (`floor_warnings`: no tet below "
        << "aspect ratio 0.1, 99% of the wall nodes with D >= L_min keeping all their layers, and here "
        << "`min_dihedral_deg = 10`) and OpenFOAM's non-orthogonality bound of 70 degrees (measured on the "
-       << "mesh as `checkMesh` measures it). *Released*: layer points let off their layers where a cell "
-       << "still missed 10 degrees or 70.\n\n"
+       << "mesh as `checkMesh` measures it, cut, not rounded, to the digits shown). *Released*: layer points "
+       << "let off their layers where a cell still missed 10 degrees or 70.\n\n"
        << "| box | threads | tets | worst aspect ratio | below 0.1 | below 0.02 | smallest dihedral (deg) | "
           "largest non-orthogonality (deg) | layer coverage | released | floors |\n"
        << "|---|---|---|---|---|---|---|---|---|---|---|\n";
@@ -525,7 +525,7 @@ std::string markdown(const Settings& s, const json& result)
                << fixed(q["min_aspect_ratio"].get<double>(), 4) << " | "
                << fixed(100 * q["fraction_below_0_1"].get<double>(), 4) << "% | " << q["below_0_02"] << " | "
                << fixed(q["min_dihedral_deg"].get<double>(), 2) << " | "
-               << fixed(q["max_non_orthogonality_deg"].get<double>(), 3) << " | "
+               << fixed(std::floor(1000 * q["max_non_orthogonality_deg"].get<double>()) / 1000, 3) << " | "
                << fixed(100 * q["layer_coverage"].get<double>(), 2) << "% | " << q["released_layer_points"] << " | "
                << (floors.empty() ? "met" : "**missed**: " + floors) << " |\n";
         }
@@ -700,6 +700,31 @@ json goals(const Settings& s, const json& sizes)
         if (!run) continue;
         const double bytes = (*run)["peak_bytes"].get<double>() / (*run)["tets"].get<double>();
         add("peak memory per output tet", size, fixed(bytes, 0) + " B", "600 B", bytes / 600.0);
+    }
+    // Issue 30: the volume stage's time per tet from the 256 box up, the
+    // slowest over the fastest; and every box's mesh meeting its floors.
+    {
+        const json *fastest = nullptr, *slowest = nullptr;
+        double low = 0, high = 0;
+        for (const json& size : sizes) {
+            const json* run = find_run(sizes, size["box"], threads);
+            if (!run || size["box"].get<int>() < 256) continue;
+            const double per_tet = seconds_of(*run, "volume") / (*run)["tets"].get<double>();
+            if (!fastest || per_tet < low) fastest = &size, low = per_tet;
+            if (!slowest || per_tet > high) slowest = &size, high = per_tet;
+        }
+        if (fastest && fastest != slowest)
+            add("volume stage time per tet from 256 up, slowest (" + (*slowest)["box_text"].get<std::string>() +
+                    ") over fastest",
+                *fastest, fixed(high / low, 2) + "x (" + fixed(1e6 * high, 1) + " / " + fixed(1e6 * low, 1) + " us)",
+                "1.5x", high / low / 1.5);
+    }
+    for (const json& size : sizes) {
+        const json* run = find_run(sizes, size["box"], threads);
+        if (!run || !run->contains("quality")) continue;
+        const bool met = (*run)["warnings"].empty() && (*run)["quality"]["max_non_orthogonality_deg"] < 70.0;
+        add("mesh meets the quality floors (Mesh quality above)", size, met ? "all met" : "missed", "all met",
+            met ? 0.0 : 2.0);
     }
     // The speed-up at the largest size run on both thread counts.
     const json* largest = nullptr;

@@ -157,7 +157,7 @@ void ProgressDisplay::summary(const CaseConfig& config, const CaseResult& result
                      "  quality   worst aspect ratio %.4f, mean %.4f, %.3f%% below 0.1, smallest dihedral angle %.2f deg, "
                      "largest non-orthogonality %.3f deg\n",
                      q.min_aspect_ratio, q.mean_aspect_ratio, 100 * q.fraction_below_0_1, q.min_dihedral_deg,
-                     v.max_non_orthogonality_deg);
+                     std::floor(1000 * v.max_non_orthogonality_deg) / 1000); // cut: 69.9999 is not 70.000
         if (verbosity_ == Verbosity::Verbose) {
             const auto phase = [o](const char* name, const QualityReport& r) {
                 std::fprintf(o, "            %-21s %9lld tets, worst %.4f, %.3f%% below 0.1, %lld below 0.02\n", name,
