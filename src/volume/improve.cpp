@@ -237,6 +237,15 @@ double face_cosine(const At& at, const Tet& t, int k, const Tet& other)
     return scale > 0 ? dot(normal, join) / scale : -2;
 }
 
+// face_cosine of the face tets t and `other` share, t's corner off it found.
+template <class At>
+double shared_face_cosine(const At& at, const Tet& t, const Tet& other)
+{
+    int k = 0;
+    while (TetEditor::contains(other, t[k])) ++k;
+    return face_cosine(at, t, k, other);
+}
+
 // An interior face of tets[i] (the face opposite its corner k) and the tet
 // across it: tets[inside] when inside >= 0, else the living tet `outside`.
 struct FaceLink {
@@ -1456,12 +1465,8 @@ OrthoCounts improve_orthogonality(TetMesh& mesh, int32_t surface_points, double 
         pinned[v] = int32_t(v) < surface_points ||
                     (layer && distance(ed.point(int32_t(v)), layers[v].home) > layers[v].slack);
     }
-    const auto face_cosine = [&](int32_t t, int32_t u) {
-        const Few<Tet, 2> two{ed.tet(t), ed.tet(u)};
-        int k = 0;
-        while (TetEditor::contains(two[1], two[0][k])) ++k; // t's corner off the face
-        return worst_cosine(ed, two, {FaceLink{0, k, 1, -1}});
-    };
+    const auto at = [&](int32_t v) -> const Vec3& { return ed.point(v); };
+    const auto face_cosine = [&](int32_t t, int32_t u) { return shared_face_cosine(at, ed.tet(t), ed.tet(u)); };
     // The interior faces beyond the bound, each as (t, k, u): the face
     // opposite corner k of tet t, u the tet across, t < u; in (t, k) order,
     // as a scan of every tet's faces finds them. The first sweep scans every
@@ -1796,13 +1801,8 @@ std::vector<int32_t> points_missing_floors(const TetMesh& mesh, int32_t surface_
             const int32_t u = adjacency.across[4 * i + k];
             if (u < 0) continue; // boundary or overshared
             const Tet& other = mesh.tets[u];
-            if (u > static_cast<int32_t>(i)) {
-                if (face_cosine(at, t, k, other) < bound) return true;
-            } else {
-                int j = 0;
-                while (TetEditor::contains(t, other[j])) ++j; // u's corner off the face
-                if (face_cosine(at, other, j, t) < bound) return true;
-            }
+            const bool lower = u > static_cast<int32_t>(i);
+            if (shared_face_cosine(at, lower ? t : other, lower ? other : t) < bound) return true;
         }
         return false;
     });
