@@ -2,6 +2,7 @@
 
 #include "core/atomic_file.h"
 #include "core/errors.h"
+#include "core/vec3.h"
 
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_pipeline.h>
@@ -349,6 +350,112 @@ FaceOrder lay_out_faces(const TetMesh& mesh, const TetFaceAdjacency& adjacency)
     return order;
 }
 
+// The faces of a mesh whose cells are groups of tets, held as lists: the
+// internal faces between different cells, in upper-triangular order, then
+// the boundary faces of `order` with their cells as owners.
+struct GroupedFaces {
+    std::vector<int32_t> owner, neighbour, offsets{0}, points;
+    int64_t quads = 0;
+
+    size_t blocks() const { return (owner.size() + kItemsPerBlock - 1) / kItemsPerBlock; }
+    // visit(owner, neighbour or -1, points, count) for the faces of block b.
+    template <typename Visit>
+    void faces(size_t b, const Visit& visit) const
+    {
+        const size_t last = std::min(owner.size(), (b + 1) * kItemsPerBlock);
+        for (size_t f = b * kItemsPerBlock; f < last; ++f)
+            visit(owner[f], f < neighbour.size() ? neighbour[f] : -1, points.data() + offsets[f],
+                  offsets[f + 1] - offsets[f]);
+    }
+    void add(int32_t cell, const int32_t* p, int count)
+    {
+        owner.push_back(cell);
+        points.insert(points.end(), p, p + count);
+        offsets.push_back(static_cast<int32_t>(points.size()));
+    }
+};
+
+Vec3 triangle_normal(const TetMesh& mesh, const Triangle& t)
+{
+    return cross(mesh.points[t[1]] - mesh.points[t[0]], mesh.points[t[2]] - mesh.points[t[0]]);
+}
+
+GroupedFaces group_faces(const TetMesh& mesh, const TetFaceAdjacency& adjacency, const FaceOrder& order,
+                         const std::vector<int32_t>& cell_of_tet, int32_t cells)
+{
+    if (cell_of_tet.size() != mesh.tets.size())
+        throw std::invalid_argument("cell_of_tet has " + std::to_string(cell_of_tet.size()) + " entries for " +
+                                    std::to_string(mesh.tets.size()) + " tets");
+    std::vector<int32_t> size(static_cast<size_t>(std::max(cells, 0)), 0);
+    for (int32_t c : cell_of_tet) {
+        if (c < 0 || c >= cells) throw std::invalid_argument("cell_of_tet names cell " + std::to_string(c) +
+                                                             " outside 0 .. " + std::to_string(cells - 1));
+        ++size[c];
+    }
+    if (std::find(size.begin(), size.end(), 0) != size.end())
+        throw std::invalid_argument("cell_of_tet leaves a cell without tets");
+
+    // Each internal triangle once, oriented from its owner (the lower cell).
+    struct Internal {
+        int32_t owner, neighbour;
+        Triangle points;
+        bool operator<(const Internal& o) const
+        {
+            return owner != o.owner ? owner < o.owner : neighbour != o.neighbour ? neighbour < o.neighbour : points < o.points;
+        }
+    };
+    std::vector<Internal> internal;
+    for (size_t t = 0; t < mesh.tets.size(); ++t)
+        for (int k = 0; k < 4; ++k) {
+            const int32_t across = adjacency.across[4 * t + k];
+            if (across <= static_cast<int32_t>(t)) continue;
+            const int32_t a = cell_of_tet[t], b = cell_of_tet[across];
+            if (a == b) continue;
+            Triangle f = tet_face(mesh.tets[t], k); // outward of tet t, so of cell a
+            if (a > b) std::swap(f[1], f[2]);
+            internal.push_back({std::min(a, b), std::max(a, b), canonical(f)});
+        }
+    tbb::parallel_sort(internal.begin(), internal.end());
+
+    GroupedFaces out;
+    for (size_t i = 0; i < internal.size();) {
+        size_t j = i + 1;
+        while (j < internal.size() && internal[j].owner == internal[i].owner &&
+               internal[j].neighbour == internal[i].neighbour)
+            ++j;
+        const Internal& first = internal[i];
+        bool quad = false;
+        if (j - i == 2 && size[first.owner] == 3 && size[first.neighbour] == 3) {
+            // (u, s, r) and a second triangle on the edge (s, r), taken the
+            // other way round: (v, r, s). The quad is u s v r.
+            const Triangle& p = first.points;
+            const Triangle& q = internal[i + 1].points;
+            for (int e = 0; e < 3 && !quad; ++e) {
+                const int32_t u = p[e], s = p[(e + 1) % 3], r = p[(e + 2) % 3];
+                for (int g = 0; g < 3 && !quad; ++g) {
+                    if (q[(g + 1) % 3] != r || q[(g + 2) % 3] != s) continue;
+                    const Vec3 n0 = triangle_normal(mesh, p), n1 = triangle_normal(mesh, q);
+                    if (!(dot(n0, n1) > 0.7 * norm(n0) * norm(n1))) continue;
+                    const int32_t four[4] = {u, s, q[g], r};
+                    out.add(first.owner, four, 4);
+                    out.neighbour.push_back(first.neighbour);
+                    ++out.quads;
+                    quad = true;
+                }
+            }
+        }
+        if (!quad)
+            for (size_t f = i; f < j; ++f) {
+                out.add(internal[f].owner, internal[f].points.data(), 3);
+                out.neighbour.push_back(internal[f].neighbour);
+            }
+        i = j;
+    }
+    for (size_t b = 0; b < order.boundary_blocks(); ++b)
+        order.boundary_faces(b, [&](int32_t tet, const Triangle& points) { out.add(cell_of_tet[tet], points.data(), 3); });
+    return out;
+}
+
 } // namespace
 
 PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& case_dir, const PolyMeshOptions& options)
@@ -368,12 +475,17 @@ PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& 
             throw StageError("polyMesh export", "patch type '" + types[p] + "' is neither wall nor patch");
     }
 
+    GroupedFaces grouped;
+    if (options.cell_of_tet) grouped = group_faces(mesh, adjacency, order, *options.cell_of_tet, options.cells);
+
     PolyMeshCounts counts;
     counts.points = static_cast<int64_t>(mesh.points.size());
-    counts.cells = static_cast<int64_t>(mesh.tets.size());
-    counts.internal_faces = order.internal_count;
+    counts.cells = options.cell_of_tet ? options.cells : static_cast<int64_t>(mesh.tets.size());
+    counts.internal_faces =
+        options.cell_of_tet ? static_cast<int64_t>(grouped.neighbour.size()) : order.internal_count;
     counts.faces = counts.internal_faces + static_cast<int64_t>(order.boundary.size());
     counts.patch_faces = order.patch_faces;
+    counts.quad_faces = grouped.quads;
 
     const std::filesystem::path dir = case_dir / "constant" / "polyMesh";
     std::error_code ec;
@@ -419,15 +531,17 @@ PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& 
         // faces, owner and neighbour from one pass over the faces.
         FoamFile faces = open("faces"), owner = open("owner"), neighbour = open("neighbour");
         faces.header(binary ? "faceCompactList" : "faceList", "faces");
+        const bool grouped_cells = options.cell_of_tet != nullptr;
         if (binary) {
             // faceCompactList: the offsets, then the point labels.
             faces.open_list(n_faces + 1);
             stream_blocks<1>(n_faces / kItemsPerBlock + 1, {&faces}, [&](size_t b, auto& out) {
                 const size_t last = std::min(n_faces + 1, (b + 1) * kItemsPerBlock);
-                for (size_t f = b * kItemsPerBlock; f < last; ++f) put_label(out[0], static_cast<int32_t>(3 * f), true);
+                for (size_t f = b * kItemsPerBlock; f < last; ++f)
+                    put_label(out[0], grouped_cells ? grouped.offsets[f] : static_cast<int32_t>(3 * f), true);
             });
             faces.close_list();
-            faces.open_list(3 * n_faces);
+            faces.open_list(grouped_cells ? grouped.points.size() : 3 * n_faces);
         } else {
             faces.open_list(n_faces);
         }
@@ -435,21 +549,29 @@ PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& 
         owner.open_list(n_faces);
         neighbour.header("labelList", "neighbour", note.str());
         neighbour.open_list(static_cast<size_t>(counts.internal_faces));
-        stream_blocks<3>(order.face_blocks(), {&faces, &owner, &neighbour}, [&](size_t b, auto& out) {
-            order.faces(b, [&](int32_t cell, int32_t across, const Triangle& points) {
-                if (binary) {
-                    out[0].bytes(points.data(), sizeof points);
-                } else {
-                    out[0].append("3(");
-                    out[0].number(points[0], ' ');
-                    out[0].number(points[1], ' ');
-                    out[0].number(points[2], ')');
-                    out[0].append("\n");
-                }
-                put_label(out[1], cell, binary);
-                if (across >= 0) put_label(out[2], across, binary);
+        const auto put_face = [&](auto& out, int32_t cell, int32_t across, const int32_t* points, int count) {
+            if (binary) {
+                out[0].bytes(points, sizeof(int32_t) * static_cast<size_t>(count));
+            } else {
+                out[0].number(count, '(');
+                for (int i = 0; i < count; ++i) out[0].number(points[i], i + 1 < count ? ' ' : ')');
+                out[0].append("\n");
+            }
+            put_label(out[1], cell, binary);
+            if (across >= 0) put_label(out[2], across, binary);
+        };
+        if (grouped_cells)
+            stream_blocks<3>(grouped.blocks(), {&faces, &owner, &neighbour}, [&](size_t b, auto& out) {
+                grouped.faces(b, [&](int32_t cell, int32_t across, const int32_t* points, int count) {
+                    put_face(out, cell, across, points, count);
+                });
             });
-        });
+        else
+            stream_blocks<3>(order.face_blocks(), {&faces, &owner, &neighbour}, [&](size_t b, auto& out) {
+                order.faces(b, [&](int32_t cell, int32_t across, const Triangle& points) {
+                    put_face(out, cell, across, points.data(), 3);
+                });
+            });
         for (FoamFile* file : {&faces, &owner, &neighbour}) {
             file->close_list();
             file->finish();

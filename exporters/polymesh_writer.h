@@ -20,6 +20,15 @@ struct PolyMeshOptions {
     // tet_face_adjacency(mesh) when the caller has it (the volume stage
     // keeps it); computed here otherwise. Either way the mesh is checked.
     const TetFaceAdjacency* adjacency = nullptr;
+    // When given (one entry per tet, values 0 .. cells - 1, each cell named
+    // by some tet), cell c is the union of the tets with cell_of_tet = c:
+    // the faces between two tets of one cell are left out, and two triangles
+    // between the same two cells of three tets each (two layer prisms) that
+    // share an edge and face the same way (normals within about 45 degrees)
+    // are written as one quad. Otherwise cell i is tet i. The caller vouches
+    // for the union's shape (layer_prism_cells keeps only star-shaped ones).
+    const std::vector<int32_t>* cell_of_tet = nullptr;
+    int32_t cells = 0;
     // When given, the written files are handed over here, still under their
     // temporary names, for the caller to commit with its other outputs;
     // otherwise they are moved into place before returning.
@@ -28,6 +37,7 @@ struct PolyMeshOptions {
 
 struct PolyMeshCounts {
     int64_t points = 0, cells = 0, faces = 0, internal_faces = 0;
+    int64_t quad_faces = 0; // internal faces written as quads (between layer prisms)
     std::vector<int64_t> patch_faces; // per patch, in the order of `boundary`
 };
 
@@ -37,7 +47,8 @@ struct PolyMeshCounts {
 // and then by neighbour cell (upper-triangular order), owner < neighbour,
 // each face's points ordered so its normal points from owner to neighbour;
 // then the boundary faces grouped by patch in the order of `boundary`, their
-// normals pointing out of the mesh. Cell i is tet i; point i is point i.
+// normals pointing out of the mesh. Cell i is tet i (or the cells of
+// options.cell_of_tet); point i is point i.
 //
 // The mesh is validated before anything is written: every tet positively
 // oriented, no face shared by more than two tets, the one-tet faces exactly

@@ -115,6 +115,13 @@ struct MeshResult {
     std::vector<double> layers;
     // Layer index of each point: 0 on the boundary, m for the m-th layer.
     std::vector<std::int32_t> point_layer;
+    // The boundary node each point was made from (itself on the boundary;
+    // for a point of a sliver's edge split, the nearest boundary node), and
+    // 1 for filler points and edge-split points, 0 for the boundary nodes and
+    // their layer points. The column of boundary node i is the points with
+    // generator i and filler 0, in the order of their point_layer.
+    std::vector<std::int32_t> point_generator;
+    std::vector<std::uint8_t> point_filler;
 
     // Per tet (T values): aspect ratio 2 sqrt(6) r_in / l_max (1 for the
     // regular tet), and the largest layer index of its points.

@@ -135,6 +135,8 @@ MeshResult to_result(const PipelineRun& run, const CaseConfig& config)
         target->resize(n, nan); // the fields cover the surface nodes, the first points
     }
     out.point_layer = run.volume->point_layer;
+    out.point_generator = run.volume->point_generator;
+    out.point_filler.assign(run.volume->point_filler.begin(), run.volume->point_filler.end());
     for (const auto& [name, values] : mesh.tet_fields) {
         if (name == "aspect_ratio") out.aspect_ratio = values;
         if (name == "layer")

@@ -348,7 +348,8 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
     config.inlet_speed = flow.number("inlet_speed", config.inlet_speed, 0, 1e3, true);
 
     const Section output(root["output"].as_table(), "output", source,
-                         {"surface", "volume", "openfoam", "openfoam_format", "msh_version", "msh_binary"});
+                         {"surface", "volume", "openfoam", "openfoam_format", "layer_prisms", "msh_version",
+                          "msh_binary"});
     // A list of output file names with one of the given extensions.
     const auto file_list = [&](const std::string& key, const std::vector<std::string>& extensions,
                                std::vector<std::string>& into) {
@@ -377,6 +378,7 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
         throw InputError(output.where("openfoam_format") + " = \"" + foam_format + "\" is not a format",
                          "choose \"ascii\" or \"binary\"");
     config.openfoam_binary = foam_format == "binary";
+    config.layer_prisms = output.get<bool>("layer_prisms").value_or(true);
     config.msh_version = output.get<double>("msh_version").value_or(4.1);
     if (config.msh_version != 4.1 && config.msh_version != 2.2)
         throw InputError(output.where("msh_version") + " must be 4.1 or 2.2",

@@ -9,6 +9,7 @@
 #include "exporters/surface_writers.h"
 #include "exporters/volume_writers.h"
 #include "pipeline/memory_estimate.h"
+#include "volume/layer_prisms.h"
 #include "volume/quality.h"
 
 #include <nlohmann/json.hpp>
@@ -342,6 +343,9 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
         report["openfoam"] = {{"cells", result.polymesh->cells},
                               {"faces", result.polymesh->faces},
                               {"internal_faces", result.polymesh->internal_faces},
+                              {"layer_prisms", result.layer_prisms},
+                              {"layer_prisms_refused", result.layer_prisms_refused},
+                              {"quad_faces", result.polymesh->quad_faces},
                               {"patch_faces", result.polymesh->patch_faces},
                               {"units", "m"},
                               {"flow_fields", result.flow_case ? "written (0/U, 0/p)"
@@ -424,9 +428,18 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
             // Walls are OpenFOAM `wall` patches, openings generic `patch`es.
             std::vector<std::string> types = {"wall"};
             for (size_t c = 0; c < result.run.caps.size(); ++c) types.push_back("patch");
+            LayerPrismCells cells;
+            if (config.layer_prisms) {
+                const VolumeResult& v = *result.run.volume;
+                cells = layer_prism_cells(mesh, v.adjacency, v.point_generator, v.point_layer, v.point_filler);
+                result.layer_prisms = cells.prisms;
+                result.layer_prisms_refused = cells.refused;
+            }
             const PolyMeshCounts counts =
                 write_polymesh(mesh, dir, {.binary = config.openfoam_binary, .scale = 1e-3, .patch_types = types,
-                                     .adjacency = &result.run.volume->adjacency, .staged = &pending});
+                                     .adjacency = &result.run.volume->adjacency,
+                                     .cell_of_tet = config.layer_prisms ? &cells.cell_of_tet : nullptr,
+                                     .cells = cells.cells, .staged = &pending});
             result.polymesh = counts;
             std::vector<std::string> names;
             std::vector<PatchRole> roles;

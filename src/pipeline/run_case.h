@@ -16,6 +16,8 @@ struct CaseResult {
     PipelineRun run;
     std::vector<std::filesystem::path> written; // in the order written, report.json last
     std::optional<PolyMeshCounts> polymesh;     // when the OpenFOAM case was written
+    int64_t layer_prisms = 0;                   // its cells of three tets filling a layer prism
+    int64_t layer_prisms_refused = 0;           // prisms filled by three tets left as tets (not star-shaped)
     bool flow_case = false;                     // whether 0/U and 0/p were written
     std::vector<std::string> warnings;          // the run's floors it missed (floor_warnings)
 };

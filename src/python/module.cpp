@@ -121,6 +121,8 @@ py::dict result_dict(const MeshResult& m)
     out["d"] = array_1d<double>(m.d);
     out["layers"] = array_1d<double>(m.layers);
     out["point_layer"] = array_1d<std::int32_t>(m.point_layer);
+    out["point_generator"] = array_1d<std::int32_t>(m.point_generator);
+    out["point_filler"] = array_1d<bool>(m.point_filler);
     out["aspect_ratio"] = array_1d<double>(m.aspect_ratio);
     out["tet_layer"] = array_1d<std::int32_t>(m.tet_layer);
     return out;
@@ -269,7 +271,10 @@ Returns a dict of NumPy arrays: points (N, 3), tets (T, 4) positively
 oriented, boundary_triangles (B, 3) counter-clockwise seen from outside,
 boundary_patch (B,), patch_names (list), surface_points (the boundary nodes
 are points[:surface_points]), D, D_out, d, layers (N,) (NaN at interior
-points), point_layer (N,), aspect_ratio (T,), tet_layer (T,).)");
+points), point_layer (N,), point_generator (N,) (the boundary node each point
+was made from), point_filler (N,) (True for filler and edge-split points; the
+column of boundary node i is the points with generator i and not filler, in
+the order of point_layer), aspect_ratio (T,), tet_layer (T,).)");
 
     m.def("mesh_gmsh_model", &mesh_gmsh_model, py::arg("physical_group") = py::none(), py::kw_only(),
           py::arg("volume_name") = "fluid", py::arg("views") = true,

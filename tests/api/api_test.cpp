@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <map>
+#include <set>
 #include <utility>
 
 namespace {
@@ -121,6 +122,27 @@ void expect_valid_mesh(const MeshResult& m)
     for (size_t i = 0; i < m.surface_points; ++i) EXPECT_GT(m.d[i], 0);
     ASSERT_EQ(m.point_layer.size(), n);
     for (size_t i = 0; i < m.surface_points; ++i) EXPECT_EQ(m.point_layer[i], 0);
+    // Each point's generator is a boundary node (itself on the boundary); a
+    // layer point (not a filler) of layer m has one in each layer below.
+    ASSERT_EQ(m.point_generator.size(), n);
+    ASSERT_EQ(m.point_filler.size(), n);
+    std::set<std::pair<int32_t, int32_t>> column;
+    for (size_t i = 0; i < n; ++i) {
+        ASSERT_GE(m.point_generator[i], 0);
+        ASSERT_LT(static_cast<size_t>(m.point_generator[i]), m.surface_points);
+        if (i < m.surface_points) {
+            EXPECT_EQ(m.point_generator[i], static_cast<int32_t>(i));
+            EXPECT_EQ(m.point_filler[i], 0);
+        }
+        if (!m.point_filler[i]) EXPECT_TRUE(column.insert({m.point_generator[i], m.point_layer[i]}).second);
+    }
+    size_t layer_points = 0;
+    for (const auto& [g, layer] : column)
+        if (layer > 0) {
+            ++layer_points;
+            EXPECT_TRUE(column.count({g, layer - 1})) << "node " << g << " layer " << layer;
+        }
+    EXPECT_GT(layer_points, m.surface_points); // the tube's wall nodes have layers
     ASSERT_EQ(m.aspect_ratio.size(), tets);
     ASSERT_EQ(m.tet_layer.size(), tets);
     for (double q : m.aspect_ratio) {

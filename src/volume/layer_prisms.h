@@ -1,0 +1,46 @@
+#pragma once
+// The layers as prism cells for a finite volume solver: the three tets that
+// fill a layer prism become one cell of the OpenFOAM export.
+
+#include "core/tet_mesh.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace scalemesh {
+
+struct LayerPrismCells {
+    std::vector<int32_t> cell_of_tet; // per tet: its cell, numbered in the order of each cell's first tet
+    int32_t cells = 0;
+    int64_t prisms = 0;  // cells of three tets
+    int64_t refused = 0; // prisms filled by three tets left as tets: not star-shaped from their centroid,
+                         // or a face beyond the non-orthogonality bound
+};
+
+// A layer prism is the wedge between the points of boundary triangle (a, b, c)
+// in layer m and in layer m + 1 (m = 0: the triangle itself) of the columns
+// of a, b and c: the points made from a, b and c (point_generator) that are
+// not fillers (point_filler), by their point_layer. Where exactly three tets
+// have all their points in one such prism, each with the three generators,
+// they fill it, and become one cell. They stay three tets where a face of
+// the union is not seen from the union's centroid at an angle of more than
+// about 3 degrees (OpenFOAM's face-pyramid check would fail, and the cell
+// centre would lie outside a face), or where a face to another cell would
+// be more than `max_non_orthogonality_deg` off the join of the two cells'
+// centroids (a cell's centroid moves when its tets become one); the second
+// test is repeated until no more prisms are refused, since each refusal
+// moves centroids again. The default bound is 2 degrees inside the volume
+// stage's 70: OpenFOAM's centre of a polyhedron (by pyramids on its faces'
+// centres) and area of a warped quad differ slightly from the centroid and
+// the triangles measured here. Every other tet is a cell of its own.
+//
+// Why: a prism's faces to the prisms above, below and beside it are close to
+// orthogonal to the lines between the cell centres, where the three tets'
+// faces are up to 70 degrees off (docs/validation.md measures what this buys
+// a simpleFoam solution).
+// `adjacency` is tet_face_adjacency(mesh).
+LayerPrismCells layer_prism_cells(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
+                                  const std::vector<int32_t>& point_generator, const std::vector<int32_t>& point_layer,
+                                  const std::vector<char>& point_filler, double max_non_orthogonality_deg = 68);
+
+} // namespace scalemesh
