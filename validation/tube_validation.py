@@ -151,7 +151,7 @@ def foam_from_msh(case, msh):
 
 
 def mesh3_case(h, case, template, binary):
-    """CGAL Mesh_3's isotropic tet mesh of the same cylinder (bench/mesh3_tube:
+    """CGAL Mesh_3's isotropic tet mesh of the same cylinder (validation/mesh3_tube.cpp:
     every size criterion h mm, the cap rims protected), with the template's
     system/, constant/ and 0/ as for Gmsh."""
     case_from_template(case, template)
@@ -382,7 +382,7 @@ def error_at(results, key, cells):
 
 
 PEERS = (("gmsh", "Gmsh isotropic"), ("mesh3", "CGAL Mesh_3 isotropic"), ("snappy", "snappyHexMesh with layers"))
-MESH3_BINARY = [None]   # bench/mesh3_tube, set by main()
+MESH3_BINARY = [None]   # validation/mesh3_tube of the build, set by main()
 
 
 def matched(sm, peers):
@@ -514,7 +514,7 @@ What the layers buy: laminar Poiseuille flow through the tube of
 scalemesh at M = {Ms} and, as its peers at matched cell counts, on a
 cylinder of the same radius and length, by Gmsh's Delaunay tet mesher
 (isotropic tets) at element sizes h = {hs} mm, by CGAL Mesh_3 (isotropic
-tets, `bench/mesh3_tube`: every size bound h, the cap rims protected) at
+tets, `validation/mesh3_tube.cpp`: every size bound h, the cap rims protected) at
 h = {mesh3_hs} mm and by snappyHexMesh (hexahedra of size h cut to the
 cylinder, with 3 wall layers of expansion ratio 1.2) at h = {snappy_hs} mm. Every mesh gets the same OpenFOAM case: the
 `system/`, `constant/` and `0/` scalemesh writes (simpleFoam, laminar,
@@ -644,7 +644,7 @@ def main():
                     "it out")
     ap.add_argument("--mesh3", type=float, nargs="*", default=DEFAULT_MESH3,
                     help="CGAL Mesh_3 size bounds (mm); none to leave it out")
-    ap.add_argument("--mesh3-tube", help="the bench/mesh3_tube binary (default: next to --scalemesh's build)")
+    ap.add_argument("--mesh3-tube", help="the mesh3_tube binary (default: validation/mesh3_tube in --scalemesh's build)")
     ap.add_argument("--snappy", type=float, nargs="*", default=DEFAULT_SNAPPY,
                     help="snappyHexMesh background cell sizes (mm); none to leave it out")
     ap.add_argument("--quick", action="store_true", help=f"CI check: M = {QUICK_M} only, assert WSS within 5%%")
@@ -672,7 +672,7 @@ def main():
     if not os.access(binary, os.X_OK):
         sys.exit("no scalemesh binary at %s (build it, or pass --scalemesh)" % binary)
     MESH3_BINARY[0] = os.path.abspath(args.mesh3_tube or os.path.join(
-        os.path.dirname(os.path.dirname(os.path.dirname(binary))), "bench", "mesh3_tube"))
+        os.path.dirname(os.path.dirname(os.path.dirname(binary))), "validation", "mesh3_tube"))
     if ((args.mesh3 and not args.quick and not args.from_json) or (args.quick and args.quick_mesh3)) and \
             not os.access(MESH3_BINARY[0], os.X_OK):
         sys.exit("no mesh3_tube binary at %s (build the target mesh3_tube, pass --mesh3-tube, or --mesh3 with no "
