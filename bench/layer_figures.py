@@ -69,6 +69,8 @@ def run_case(scalemesh, work, name, label, edits):
         "released": volume["dihedral_pass"].get("released_layer_points", 0),
         "anisotropy": volume["first_layer_anisotropy_median"],
         "tets": volume["tets"],
+        "cells": report["openfoam"]["cells"],
+        "prisms": report["openfoam"]["layer_prisms"],
         "worst_aspect": quality["min_aspect_ratio"],
         "min_dihedral": quality["min_dihedral_deg"],
         "non_ortho": float(ortho.group(1)) if ortho else float("nan"),
@@ -80,12 +82,13 @@ def run_case(scalemesh, work, name, label, edits):
 
 def table(rows):
     out = ["| case | M | wall nodes owed | all layers | mean layers | stand-ins | layer points released | "
-           "anisotropy median | tets | worst aspect ratio | min dihedral (deg) | checkMesh | max non-orth. (deg) | "
-           "faces > 70 deg | warnings |",
-           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+           "anisotropy median | tets | OpenFOAM cells (layer prisms) | worst aspect ratio | min dihedral (deg) | "
+           "checkMesh | max non-orth. (deg) | faces > 70 deg | warnings |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         out.append(f"| {r['case']} | {r['M']:g} | {r['owed']} | {100 * r['coverage']:.2f}% | {r['mean']:.2f} | "
-                   f"{r['stand_ins']} | {r['released']} | {r['anisotropy']:.2f} | {r['tets']} | {r['worst_aspect']:.4f} | "
+                   f"{r['stand_ins']} | {r['released']} | {r['anisotropy']:.2f} | {r['tets']} | {r['cells']} ({r['prisms']}) | "
+                   f"{r['worst_aspect']:.4f} | "
                    f"{r['min_dihedral']:.2f} | {'Mesh OK' if r['mesh_ok'] else 'FAILED'} | {r['non_ortho']:.2f} | "
                    f"{r['severe']} | {r['warnings']} |")
     return "\n".join(out)

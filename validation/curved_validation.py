@@ -525,8 +525,7 @@ nice -n 19 /usr/bin/python3 validation/curved_validation.py --scalemesh build/sr
     --workdir /tmp/scalemesh-curved --M {Ms} --jobs {jobs}
 ```
 
-This run: {nmesh} meshes on {machine}, {jobs} case(s) at a time, under
-`nice -n 19` next to a CI build using the same cores; meshing {mesh_min:.1f}
+This run: {nmesh} meshes on {machine}, {jobs} case(s) at a time, {context}; meshing {mesh_min:.1f}
 minutes and simpleFoam {solver_min:.1f} minutes in all (summed over the
 meshes), {wall_min:.1f} minutes wall clock including post-processing
 ({date}{reused}). It writes
@@ -539,6 +538,7 @@ meshes), {wall_min:.1f} minutes wall clock including post-processing
         wp=4 * BEND_NU * U_IN / (BEND_A * 1e-3),
         bend=bend_tab, snu=STEN_NU, sre=STEN_RE, sre2=2 * STEN_RE, sslab=STEN_SLAB, th=THROAT_HALF, sten=sten_tab,
         png=rel_png, Ms=" ".join("%g" % m for m in meta["M"]), nmesh=len(ok), machine=meta["machine"],
+        context=meta.get("context") or "under `nice -n 19` next to a CI build using the same cores",
         jobs=meta["jobs"], mesh_min=sum(r["mesh_seconds"] for r in ok) / 60,
         solver_min=sum(r["solver_seconds"] for r in ok) / 60, wall_min=meta["wall_seconds"] / 60, date=meta["date"],
         reused=("; %d of the meshes' results reused (`--reuse`) from an earlier invocation in the same work "
@@ -570,6 +570,8 @@ def main():
     ap.add_argument("--jobs", type=int, default=1, help="cases run at a time")
     ap.add_argument("--reuse", action="store_true",
                     help="take a mesh's result from an earlier run in the same --workdir when there is one")
+    ap.add_argument("--context", help="what else ran on the machine during the run, for the page (default: "
+                    "a CI build under nice -n 19, as `bash setup.sh validate` is usually run)")
     ap.add_argument("--from-json", help="rewrite the section from a curved_results.json, running nothing")
     ap.add_argument("--out", default=os.path.join(REPO, "validation"), help="curved_results.json, curved.png")
     ap.add_argument("--doc", default=os.path.join(REPO, "docs", "validation.md"))
@@ -579,6 +581,8 @@ def main():
     if args.from_json:
         data = json.load(open(args.from_json))
         results, meta = data["results"], data["meta"]
+        if args.context:
+            meta["context"] = args.context
         ref = reference(results)
         data["reference"] = ref
         with open(os.path.join(args.out, "curved_results.json"), "w") as f:
@@ -598,6 +602,7 @@ def main():
                 for kind, M in jobs]
         results = [f.result() for f in futs]
     meta = {"M": args.M, "jobs": args.jobs, "machine": machine(), "wall_seconds": time.time() - start,
+            "context": args.context,
             "date": time.strftime("%Y-%m-%d", time.gmtime()), "reused": sum(1 for r in results if r.get("reused"))}
     ref = reference(results)
     os.makedirs(args.out, exist_ok=True)
