@@ -62,6 +62,31 @@ DEFAULT_SNAPPY = [1.2, 0.8, 0.55, 0.4, 0.3, 0.22]    # snappyHexMesh background 
 
 # ---------------------------------------------------------------- meshes
 
+SCALEMESH_SETTINGS = []   # (section, key, value text) from --set, applied to every scalemesh case
+
+
+def apply_setting(toml, section, key, value):
+    """The case file text with `key = value` in [section]: an existing key's
+    line replaced, else the key added under the section (or a new section)."""
+    lines = toml.split("\n")
+    current = None
+    header = None
+    for i, line in enumerate(lines):
+        m = re.match(r"\s*(\[\[?)([A-Za-z_.]+)\]\]?\s*(#.*)?$", line)
+        if m:
+            current = m.group(2) if m.group(1) == "[" else None   # an array of tables is no section to set
+            if current == section and header is None:
+                header = i
+            continue
+        if current == section and re.match(r"\s*%s\s*=" % re.escape(key), line):
+            lines[i] = "%s = %s" % (key, value)
+            return "\n".join(lines)
+    if header is None:
+        return toml + "\n[%s]\n%s = %s\n" % (section, key, value)
+    lines.insert(header + 1, "%s = %s" % (key, value))
+    return "\n".join(lines)
+
+
 def scalemesh_case(binary, M, case):
     """A scalemesh run of cases/tube at layer count M, with the test's flow."""
     if os.path.exists(case):
@@ -73,6 +98,8 @@ def scalemesh_case(binary, M, case):
         raise RuntimeError("no M key in cases/tube/scalemesh.toml")
     toml = toml.replace('surface = ["surface.msh", "surface.vtk"]', "surface = []")
     toml += "\n[flow]\nviscosity = %g\ninlet_speed = %g\n" % (NU, U_IN)
+    for section, key, value in SCALEMESH_SETTINGS:
+        toml = apply_setting(toml, section, key, value)
     with open(os.path.join(case, "scalemesh.toml"), "w") as f:
         f.write(toml)
     t = time.time()
@@ -309,25 +336,28 @@ def analyse(case):
     }
 
 
-def set_grad_scheme(case, scheme):
-    """Replaces the gradSchemes of the case's system/fvSchemes by `default scheme`."""
+def set_schemes(case, blocks):
+    """Replaces whole blocks of the case's system/fvSchemes: `blocks` maps a
+    block name (gradSchemes, ...) to its new body, e.g. `default Gauss linear;`."""
     path = os.path.join(case, "system", "fvSchemes")
-    text, n = re.subn(r"gradSchemes\s*\{[^}]*\}", "gradSchemes { default %s; }" % scheme, open(path).read())
-    if n != 1:
-        raise RuntimeError("no gradSchemes in " + path)
+    text = open(path).read()
+    for name, body in blocks.items():
+        text, n = re.subn(name + r"\s*\{[^}]*\}", "%s { %s }" % (name, body), text)
+        if n != 1:
+            raise RuntimeError("no %s in %s" % (name, path))
     open(path, "w").write(text)
+
+
+def set_grad_scheme(case, scheme):
+    """gradSchemes `default <scheme>` in place of what scalemesh writes."""
+    set_schemes(case, {"gradSchemes": "default %s;" % scheme})
 
 
 def set_laplacian_scheme(case, scheme):
     """laplacianSchemes `Gauss linear <scheme>` and snGradSchemes `<scheme>`
     (e.g. `limited corrected 0.5`) in place of what scalemesh writes."""
-    path = os.path.join(case, "system", "fvSchemes")
-    text, a = re.subn(r"laplacianSchemes\s*\{[^}]*\}", "laplacianSchemes { default Gauss linear %s; }" % scheme,
-                      open(path).read())
-    text, b = re.subn(r"snGradSchemes\s*\{[^}]*\}", "snGradSchemes { default %s; }" % scheme, text)
-    if (a, b) != (1, 1):
-        raise RuntimeError("no laplacianSchemes or snGradSchemes in " + path)
-    open(path, "w").write(text)
+    set_schemes(case, {"laplacianSchemes": "default Gauss linear %s;" % scheme,
+                       "snGradSchemes": "default %s;" % scheme})
 
 
 def study_one(kind, param, case, binary, template, grad=None, laplacian=None):
@@ -343,6 +373,8 @@ def study_one(kind, param, case, binary, template, grad=None, laplacian=None):
         set_laplacian_scheme(case, laplacian)
     result = {"mesher": kind, "parameter": param, "mesh_seconds": mesh_seconds, "grad_scheme": grad or "as written",
               "laplacian": laplacian or "as written"}
+    if kind == "scalemesh" and SCALEMESH_SETTINGS:
+        result["settings"] = ", ".join("%s.%s = %s" % s for s in SCALEMESH_SETTINGS)
     result.update(solve(case))
     result.update(analyse(case))
     log("%-9s %s %-5g cells %7d  WSS error %+7.3f%% (rms %.2f%%)  dp error %+7.3f%%  %s, %d iterations, %.0f s"
@@ -505,13 +537,15 @@ def write_doc(results, doc, png, args, elapsed):
         notes = open(args.notes).read().strip()
     snappy_h = sorted((r["parameter"] for r in results if r["mesher"] == "snappy"), reverse=True)
     mesh3_h = sorted((r["parameter"] for r in results if r["mesher"] == "mesh3"), reverse=True)
+    settings = sorted({r.get("settings", "") for r in sm})
+    settings = " (case file as `cases/tube`'s but %s)" % " / ".join(settings) if settings != [""] else ""
     text = """# CFD validation: the straight tube{title_note}
 
 Generated by `validation/tube_validation.py` (issue 31); do not edit by hand.
 
 What the layers buy: laminar Poiseuille flow through the tube of
 `cases/tube` (6 mm diameter, clipped at z = -12 and +12 mm), meshed by
-scalemesh at M = {Ms} and, as its peers at matched cell counts, on a
+scalemesh at M = {Ms}{settings} and, as its peers at matched cell counts, on a
 cylinder of the same radius and length, by Gmsh's Delaunay tet mesher
 (isotropic tets) at element sizes h = {hs} mm, by CGAL Mesh_3 (isotropic
 tets, `validation/mesh3_tube.cpp`: every size bound h, the cap rims protected) at
@@ -573,7 +607,7 @@ bash setup.sh validate
 # or, with the binary already built:
 /usr/bin/python3 validation/tube_validation.py --scalemesh build/src/cli/scalemesh \\
     --workdir /tmp/scalemesh-validation --M {Ms_cli} --h {hs_cli} \\
-    --mesh3 {mesh3_cli} --snappy {snappy_cli}{grad_cli}
+    --mesh3 {mesh3_cli} --snappy {snappy_cli}{grad_cli}{set_cli}
 ```
 
 Meshing and solving took {minutes:.1f} minutes in all (summed over the meshes,
@@ -613,7 +647,9 @@ runs `--quick`: M = {qm}, the schemes scalemesh writes, asserting the mean wall 
                        mesh3_hs=", ".join("%g" % h for h in mesh3_h) or "(none)",
                        mesh3_cli=" ".join("%g" % h for h in mesh3_h),
                        minutes=sum(r["mesh_seconds"] + r["solver_seconds"] for r in results) / 60, qm=QUICK_M, png=rel_png,
-                       matched=matched(sm, peers), notes=notes, out=out,
+                       matched=matched(sm, peers), notes=notes, out=out, settings=settings,
+                       set_cli=(" \\\n    --set " + " ".join("'%s.%s=%s'" % s for s in SCALEMESH_SETTINGS)
+                                if SCALEMESH_SETTINGS else ""),
                        title_note=(" (%s)" % ", ".join(s for s in (args.grad, args.laplacian) if s)
                                    if args.grad or args.laplacian else ""),
                        grad_note=(" The schemes are those scalemesh writes: `gradSchemes { default "
@@ -659,6 +695,9 @@ def main():
     ap.add_argument("--write-results", action="store_true",
                     help="with --from-json: also write the merged results.json, results.csv and tube.png to --out")
     ap.add_argument("--tolerance", type=float, default=0.05)
+    ap.add_argument("--set", nargs="+", default=[], metavar="SECTION.KEY=VALUE",
+                    help="a case-file setting for every scalemesh mesh, in TOML (e.g. volume.growth=1.3, "
+                         "'volume.first_layer=\"paper\"')")
     ap.add_argument("--grad", help="gradSchemes default for every case (e.g. 'Gauss linear') instead of the "
                     "pointCellsLeastSquares scalemesh writes")
     ap.add_argument("--laplacian", help="laplacian and snGrad scheme for every case (e.g. 'limited corrected "
@@ -668,6 +707,11 @@ def main():
     ap.add_argument("--notes", default=os.path.join(REPO, "validation", "notes.md"),
                     help="hand-written findings appended to the page")
     args = ap.parse_args()
+    for item in args.set:
+        m = re.match(r"([A-Za-z_]+)\.([A-Za-z_]+)=(.+)$", item)
+        if not m:
+            sys.exit("--set %s: write SECTION.KEY=VALUE, e.g. volume.growth=1.3" % item)
+        SCALEMESH_SETTINGS.append(m.groups())
     binary = os.path.abspath(args.scalemesh)
     if not os.access(binary, os.X_OK):
         sys.exit("no scalemesh binary at %s (build it, or pass --scalemesh)" % binary)

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -50,9 +51,9 @@ PrismKey prism_of(const Tet& tet, const std::vector<int32_t>& generator, const s
     return {{g[0], g[1], g[2]}, low};
 }
 
-// Whether each outer face of tets `group` (the faces not shared within it)
-// sees the group's centroid at more than about 3 degrees on its inner side.
-bool star_shaped(const TetMesh& mesh, const std::array<int32_t, 3>& group)
+// The volume-weighted centroid of tets `group`, or nothing if their volume
+// is not positive.
+std::optional<Vec3> group_centroid(const TetMesh& mesh, const std::array<int32_t, 3>& group)
 {
     Vec3 centroid;
     double volume = 0;
@@ -63,24 +64,22 @@ bool star_shaped(const TetMesh& mesh, const std::array<int32_t, 3>& group)
         centroid += v * (a + b + c + d) / 4;
         volume += v;
     }
-    if (!(volume > 0)) return false;
-    centroid /= volume;
+    if (!(volume > 0)) return std::nullopt;
+    return centroid / volume;
+}
+
+// Whether each outer face of tets `group` (a face whose neighbour across,
+// in `group_of`, is not group `g`) sees `centroid` at more than about 3
+// degrees on its inner side.
+bool star_shaped(const TetMesh& mesh, const TetFaceAdjacency& adjacency, const std::vector<int32_t>& group_of,
+                 int32_t g, const std::array<int32_t, 3>& group, const Vec3& centroid)
+{
     const double min_sine = std::sin(3.0 * 3.14159265358979323846 / 180);
     for (int32_t t : group) {
         for (int k = 0; k < 4; ++k) {
-            Triangle f = tet_face(mesh.tets[t], k);
-            std::array<int32_t, 3> sorted = f;
-            std::sort(sorted.begin(), sorted.end());
-            bool inner = false;
-            for (int32_t u : group) {
-                if (u == t) continue;
-                for (int j = 0; j < 4 && !inner; ++j) {
-                    std::array<int32_t, 3> other = tet_face(mesh.tets[u], j);
-                    std::sort(other.begin(), other.end());
-                    inner = other == sorted;
-                }
-            }
-            if (inner) continue;
+            const int32_t across = adjacency.across[4 * t + k];
+            if (across >= 0 && group_of[across] == g) continue;
+            const Triangle f = tet_face(mesh.tets[t], k);
             const Vec3 &p = mesh.points[f[0]], &q = mesh.points[f[1]], &r = mesh.points[f[2]];
             const Vec3 n = cross(q - p, r - p); // outward: tet faces are counter-clockwise from outside
             const Vec3 out = (p + q + r) / 3 - centroid;
@@ -140,12 +139,9 @@ LayerPrismCells layer_prism_cells(const TetMesh& mesh, const TetFaceAdjacency& a
         if (j - i == 3) groups.push_back({candidates[i], candidates[i + 1], candidates[i + 2]});
         i = j;
     }
-    std::vector<char> accepted(groups.size());
-    tbb::parallel_for(size_t(0), groups.size(), [&](size_t g) { accepted[g] = star_shaped(mesh, groups[g]); });
-
     // Each tet's centroid, and each prism's in place of its tets' while it
-    // is accepted; a prism with a face beyond the bound is refused, until
-    // none is.
+    // is accepted: star-shaped from its centroid, and (below) no face beyond
+    // the bound.
     std::vector<Vec3> centre(tets);
     std::vector<int32_t> group_of(tets, -1);
     tbb::parallel_for(size_t(0), tets, [&](size_t t) {
@@ -154,20 +150,15 @@ LayerPrismCells layer_prism_cells(const TetMesh& mesh, const TetFaceAdjacency& a
     });
     for (size_t g = 0; g < groups.size(); ++g)
         for (int32_t t : groups[g]) group_of[t] = static_cast<int32_t>(g);
-    const double min_cosine = std::cos(max_non_orthogonality_deg * 3.14159265358979323846 / 180);
+    std::vector<char> accepted(groups.size());
     std::vector<Vec3> group_centre(groups.size());
-    const auto prism_centre = [&](const std::array<int32_t, 3>& group) {
-        Vec3 c;
-        double volume = 0;
-        for (int32_t t : group) {
-            const Tet& tet = mesh.tets[t];
-            const double v = tet_volume6(mesh.points[tet[0]], mesh.points[tet[1]], mesh.points[tet[2]], mesh.points[tet[3]]);
-            c += v * centre[t];
-            volume += v;
-        }
-        return c / volume;
-    };
-    tbb::parallel_for(size_t(0), groups.size(), [&](size_t g) { group_centre[g] = prism_centre(groups[g]); });
+    tbb::parallel_for(size_t(0), groups.size(), [&](size_t g) {
+        const std::optional<Vec3> c = group_centroid(mesh, groups[g]);
+        if (!c) return;
+        group_centre[g] = *c;
+        accepted[g] = star_shaped(mesh, adjacency, group_of, static_cast<int32_t>(g), groups[g], *c);
+    });
+    const double min_cosine = std::cos(max_non_orthogonality_deg * 3.14159265358979323846 / 180);
     const auto cell_centre = [&](int32_t t) {
         const int32_t g = group_of[t];
         return g >= 0 && accepted[g] ? group_centre[g] : centre[t];
