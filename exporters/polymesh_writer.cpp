@@ -380,8 +380,9 @@ Vec3 triangle_normal(const TetMesh& mesh, const Triangle& t)
     return cross(mesh.points[t[1]] - mesh.points[t[0]], mesh.points[t[2]] - mesh.points[t[0]]);
 }
 
-GroupedFaces group_faces(const TetMesh& mesh, const TetFaceAdjacency& adjacency, const FaceOrder& order,
-                         const std::vector<int32_t>& cell_of_tet, int32_t cells)
+// The internal faces of GroupedFaces below, no boundary faces yet.
+GroupedFaces group_internal_faces(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
+                                  const std::vector<int32_t>& cell_of_tet, int32_t cells)
 {
     if (cell_of_tet.size() != mesh.tets.size())
         throw std::invalid_argument("cell_of_tet has " + std::to_string(cell_of_tet.size()) + " entries for " +
@@ -451,12 +452,114 @@ GroupedFaces group_faces(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
             }
         i = j;
     }
+    return out;
+}
+
+GroupedFaces group_faces(const TetMesh& mesh, const TetFaceAdjacency& adjacency, const FaceOrder& order,
+                         const std::vector<int32_t>& cell_of_tet, int32_t cells)
+{
+    GroupedFaces out = group_internal_faces(mesh, adjacency, cell_of_tet, cells);
     for (size_t b = 0; b < order.boundary_blocks(); ++b)
         order.boundary_faces(b, [&](int32_t tet, const Triangle& points) { out.add(cell_of_tet[tet], points.data(), 3); });
     return out;
 }
 
+// A face's centre and area vector as OpenFOAM computes them
+// (primitiveMeshFaceCentresAndAreas): a triangle's own; a polygon's from the
+// fan of triangles on the mean of its points, centres weighted by area.
+struct FaceGeometry {
+    Vec3 centre, area;
+};
+
+FaceGeometry openfoam_face(const TetMesh& mesh, const int32_t* p, int count)
+{
+    if (count == 3) {
+        const Vec3 &a = mesh.points[p[0]], &b = mesh.points[p[1]], &c = mesh.points[p[2]];
+        return {(a + b + c) / 3, 0.5 * cross(b - a, c - a)};
+    }
+    Vec3 mean;
+    for (int i = 0; i < count; ++i) mean += mesh.points[p[i]];
+    mean /= count;
+    Vec3 sum_n, sum_ac;
+    double sum_a = 0;
+    for (int i = 0; i < count; ++i) {
+        const Vec3 &here = mesh.points[p[i]], &next = mesh.points[p[(i + 1) % count]];
+        const Vec3 n = cross(next - here, mean - here);
+        const double a = norm(n);
+        sum_n += n;
+        sum_a += a;
+        sum_ac += a * (here + next + mean);
+    }
+    if (!(sum_a > 0)) return {mean, Vec3()};
+    return {sum_ac / (3 * sum_a), 0.5 * sum_n};
+}
+
 } // namespace
+
+OpenFoamOrthogonality openfoam_orthogonality(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
+                                             const std::vector<int32_t>& cell_of_tet, int32_t cells,
+                                             double bound_deg)
+{
+    const GroupedFaces faces = group_internal_faces(mesh, adjacency, cell_of_tet, cells);
+    const size_t internal = faces.neighbour.size();
+    std::vector<FaceGeometry> geometry(internal);
+    tbb::parallel_for(size_t(0), internal, [&](size_t f) {
+        geometry[f] = openfoam_face(mesh, faces.points.data() + faces.offsets[f], faces.offsets[f + 1] - faces.offsets[f]);
+    });
+    // The boundary faces: the open faces of the tets, outward.
+    struct Boundary {
+        int32_t cell;
+        FaceGeometry geometry;
+    };
+    std::vector<Boundary> boundary;
+    for (size_t t = 0; t < mesh.tets.size(); ++t)
+        for (int k = 0; k < 4; ++k)
+            if (adjacency.across[4 * t + k] < 0) {
+                const Triangle f = tet_face(mesh.tets[t], k);
+                boundary.push_back({cell_of_tet[t], openfoam_face(mesh, f.data(), 3)});
+            }
+    // Cell centres (primitiveMeshCellCentresAndVols): the mean of the face
+    // centres as apex, then the pyramids on the faces, their centroids
+    // weighted by volume.
+    std::vector<Vec3> estimate(cells), centre(cells);
+    std::vector<int32_t> count(cells, 0);
+    std::vector<double> volume(cells, 0.0);
+    const auto each_face = [&](const auto& visit) {
+        for (size_t f = 0; f < internal; ++f) {
+            visit(faces.owner[f], geometry[f], 1.0);
+            visit(faces.neighbour[f], geometry[f], -1.0);
+        }
+        for (const Boundary& b : boundary) visit(b.cell, b.geometry, 1.0);
+    };
+    each_face([&](int32_t c, const FaceGeometry& g, double) { estimate[c] += g.centre, ++count[c]; });
+    for (int32_t c = 0; c < cells; ++c) estimate[c] /= std::max(count[c], 1);
+    each_face([&](int32_t c, const FaceGeometry& g, double side) {
+        const double pyramid = side * dot(g.area, g.centre - estimate[c]);
+        centre[c] += pyramid * (0.75 * g.centre + 0.25 * estimate[c]);
+        volume[c] += pyramid;
+    });
+    for (int32_t c = 0; c < cells; ++c) centre[c] = volume[c] != 0 ? centre[c] / volume[c] : estimate[c];
+
+    // checkMesh's measure: the angle between a face's area vector and the
+    // join of its cells' centres.
+    std::vector<int32_t> tets_in(cells, 0);
+    for (int32_t c : cell_of_tet) ++tets_in[c];
+    OpenFoamOrthogonality out;
+    for (size_t f = 0; f < internal; ++f) {
+        const Vec3 d = centre[faces.neighbour[f]] - centre[faces.owner[f]];
+        const Vec3& s = geometry[f].area;
+        const double cosine = std::min(1.0, dot(d, s) / (norm(d) * norm(s) + 1e-300));
+        const double angle = std::acos(std::max(-1.0, cosine)) * 180 / 3.14159265358979323846;
+        out.max_deg = std::max(out.max_deg, angle);
+        if (!(angle <= bound_deg))
+            for (int32_t c : {faces.owner[f], faces.neighbour[f]})
+                if (tets_in[c] > 1) out.grouped_cells_beyond.push_back(c);
+    }
+    std::sort(out.grouped_cells_beyond.begin(), out.grouped_cells_beyond.end());
+    out.grouped_cells_beyond.erase(std::unique(out.grouped_cells_beyond.begin(), out.grouped_cells_beyond.end()),
+                                   out.grouped_cells_beyond.end());
+    return out;
+}
 
 PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& case_dir, const PolyMeshOptions& options)
 {

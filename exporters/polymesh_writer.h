@@ -63,4 +63,24 @@ struct PolyMeshCounts {
 PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& case_dir,
                               const PolyMeshOptions& options = {});
 
+struct OpenFoamOrthogonality {
+    double max_deg = 0;                         // the worst internal face
+    std::vector<int32_t> grouped_cells_beyond; // cells of more than one tet on a face beyond the bound, ascending
+};
+
+// Face non-orthogonality of the polyMesh write_polymesh would write for
+// `cell_of_tet` (the same faces: quads between layer prisms as it joins
+// them), measured as OpenFOAM measures it: face centres and area vectors of
+// the polygons by their triangle fans (primitiveMeshFaceCentresAndAreas),
+// cell centres by pyramids on the faces from the mean of the face centres
+// (primitiveMeshCellCentresAndVols), the angle between a face's area vector
+// and the join of its two cells' centres (checkMesh's faceOrthogonality).
+// A cell of several tets has a centre off its tets' centroid where its
+// faces are warped, so a face next to it can pass a bound on the tets and
+// fail it here. The cells of more than one tet on a face beyond `bound_deg`
+// are returned for the caller to split.
+OpenFoamOrthogonality openfoam_orthogonality(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
+                                             const std::vector<int32_t>& cell_of_tet, int32_t cells,
+                                             double bound_deg);
+
 } // namespace scalemesh

@@ -24,6 +24,10 @@ namespace scalemesh {
 
 namespace {
 
+// checkMesh counts the faces beyond 70 degrees as severely non-orthogonal;
+// the merged cells keep a little below it (OpenFOAM's own arithmetic).
+constexpr double kOpenFoamNonOrthogonality = 69.9;
+
 nlohmann::json facts_json(const SurfaceFacts& f)
 {
     return {{"vertices", f.vertices},
@@ -345,6 +349,9 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
                               {"internal_faces", result.polymesh->internal_faces},
                               {"layer_prisms", result.layer_prisms},
                               {"layer_prisms_refused", result.layer_prisms_refused},
+                              {"max_non_orthogonality_deg", config.layer_prisms
+                                                                ? nlohmann::json(result.max_non_orthogonality_deg)
+                                                                : nlohmann::json(nullptr)},
                               {"quad_faces", result.polymesh->quad_faces},
                               {"patch_faces", result.polymesh->patch_faces},
                               {"units", "m"},
@@ -431,7 +438,24 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
             LayerPrismCells cells;
             if (config.layer_prisms) {
                 const VolumeResult& v = *result.run.volume;
-                cells = layer_prism_cells(mesh, v.adjacency, v.point_generator, v.point_layer, v.point_filler);
+                // OpenFOAM's centres of the merged cells differ slightly from
+                // their tets' centroid: a prism next to a face that checkMesh
+                // would find beyond 70 degrees is split back into its tets,
+                // until there is none (a round splits only prisms, so at
+                // worst every prism).
+                std::vector<char> apart(mesh.tets.size(), 0);
+                for (;;) {
+                    cells = layer_prism_cells(mesh, v.adjacency, v.point_generator, v.point_layer, v.point_filler,
+                                              68.0, &apart);
+                    const OpenFoamOrthogonality check =
+                        openfoam_orthogonality(mesh, v.adjacency, cells.cell_of_tet, cells.cells, kOpenFoamNonOrthogonality);
+                    result.max_non_orthogonality_deg = check.max_deg;
+                    if (check.grouped_cells_beyond.empty()) break;
+                    std::vector<char> split(cells.cells, 0);
+                    for (int32_t c : check.grouped_cells_beyond) split[c] = 1;
+                    for (size_t t = 0; t < mesh.tets.size(); ++t)
+                        if (split[cells.cell_of_tet[t]]) apart[t] = 1;
+                }
                 result.layer_prisms = cells.prisms;
                 result.layer_prisms_refused = cells.refused;
             }

@@ -93,34 +93,25 @@ bool star_shaped(const TetMesh& mesh, const TetFaceAdjacency& adjacency, const s
 
 LayerPrismCells layer_prism_cells(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
                                   const std::vector<int32_t>& point_generator, const std::vector<int32_t>& point_layer,
-                                  const std::vector<char>& point_filler, double max_non_orthogonality_deg)
+                                  const std::vector<char>& point_filler, double max_non_orthogonality_deg,
+                                  const std::vector<char>* apart)
 {
     if (adjacency.across.size() != 4 * mesh.tets.size())
         throw std::invalid_argument("layer_prism_cells: the face adjacency is not that of this mesh");
     const size_t n = mesh.points.size();
+    if (apart && apart->size() != mesh.tets.size())
+        throw std::invalid_argument("layer_prism_cells: `apart` has " + std::to_string(apart->size()) +
+                                    " entries for " + std::to_string(mesh.tets.size()) + " tets");
     if (point_generator.size() != n || point_layer.size() != n || point_filler.size() != n)
         throw std::invalid_argument("layer_prism_cells: per-point arrays of " + std::to_string(point_generator.size()) +
                                     ", " + std::to_string(point_layer.size()) + " and " +
                                     std::to_string(point_filler.size()) + " entries for " + std::to_string(n) +
                                     " points");
-    // The boundary triangles by their points, ascending: a prism's
-    // generators must be one of them.
-    std::vector<std::array<int32_t, 3>> triangles(mesh.boundary_faces.size());
-    for (size_t f = 0; f < triangles.size(); ++f) {
-        triangles[f] = mesh.boundary_faces[f];
-        std::sort(triangles[f].begin(), triangles[f].end());
-    }
-    tbb::parallel_sort(triangles.begin(), triangles.end());
-
-    // Each tet's prism, where it has one on a boundary triangle.
+    // Each tet's prism, where it has one.
     const size_t tets = mesh.tets.size();
     std::vector<PrismKey> key(tets);
-    tbb::parallel_for(size_t(0), tets, [&](size_t t) {
-        PrismKey k = prism_of(mesh.tets[t], point_generator, point_layer, point_filler);
-        if (k.layer != kNoPrism && !std::binary_search(triangles.begin(), triangles.end(), k.generators))
-            k.layer = kNoPrism;
-        key[t] = k;
-    });
+    tbb::parallel_for(size_t(0), tets,
+                      [&](size_t t) { key[t] = prism_of(mesh.tets[t], point_generator, point_layer, point_filler); });
     std::vector<int32_t> candidates;
     for (size_t t = 0; t < tets; ++t)
         if (key[t].layer != kNoPrism) candidates.push_back(static_cast<int32_t>(t));
@@ -155,6 +146,7 @@ LayerPrismCells layer_prism_cells(const TetMesh& mesh, const TetFaceAdjacency& a
     tbb::parallel_for(size_t(0), groups.size(), [&](size_t g) {
         const std::optional<Vec3> c = group_centroid(mesh, groups[g]);
         if (!c) return;
+        if (apart && ((*apart)[groups[g][0]] || (*apart)[groups[g][1]] || (*apart)[groups[g][2]])) return;
         group_centre[g] = *c;
         accepted[g] = star_shaped(mesh, adjacency, group_of, static_cast<int32_t>(g), groups[g], *c);
     });

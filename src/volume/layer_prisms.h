@@ -17,12 +17,15 @@ struct LayerPrismCells {
                          // or a face beyond the non-orthogonality bound
 };
 
-// A layer prism is the wedge between the points of boundary triangle (a, b, c)
-// in layer m and in layer m + 1 (m = 0: the triangle itself) of the columns
-// of a, b and c: the points made from a, b and c (point_generator) that are
+// A layer prism is the wedge between the points of three boundary nodes a,
+// b and c in layer m and in layer m + 1 (m = 0: the nodes themselves) of
+// their columns: the points made from a, b and c (point_generator) that are
 // not fillers (point_filler), by their point_layer. Where exactly three tets
 // have all their points in one such prism, each with the three generators,
-// they fill it, and become one cell. They stay three tets where a face of
+// they fill it, and become one cell. (a, b, c) need not be a boundary
+// triangle: where the Delaunay insertion joined a layer's points across the
+// other diagonal of a quad of the surface, the prisms above it stand on
+// the triangles of that layer. They stay three tets where a face of
 // the union is not seen from the union's centroid at an angle of more than
 // about 3 degrees (OpenFOAM's face-pyramid check would fail, and the cell
 // centre would lie outside a face), or where a face to another cell would
@@ -38,9 +41,12 @@ struct LayerPrismCells {
 // orthogonal to the lines between the cell centres, where the three tets'
 // faces are up to 70 degrees off (docs/validation.md measures what this buys
 // a simpleFoam solution).
-// `adjacency` is tet_face_adjacency(mesh).
+// `adjacency` is tet_face_adjacency(mesh). A prism with a tet marked in
+// `apart` (one entry per tet) is refused too: the caller's own check, such
+// as openfoam_orthogonality on the cells, found a face beyond its bound.
 LayerPrismCells layer_prism_cells(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
                                   const std::vector<int32_t>& point_generator, const std::vector<int32_t>& point_layer,
-                                  const std::vector<char>& point_filler, double max_non_orthogonality_deg = 68);
+                                  const std::vector<char>& point_filler, double max_non_orthogonality_deg = 68,
+                                  const std::vector<char>* apart = nullptr);
 
 } // namespace scalemesh

@@ -89,6 +89,27 @@ TEST(LayerPrisms, ThreeTetsFillingALayerPrismBecomeOneCell)
     EXPECT_EQ(strict.cells, 6);
 }
 
+// Prisms of an inner layer stand on the triangles of that layer, which need
+// not be boundary triangles: the same two prisms as layers 1 and 2 of
+// columns whose generators (10 .. 13) are nodes of no face of this mesh.
+TEST(LayerPrisms, InnerLayerPrismsNeedNoBoundaryTriangleBelow)
+{
+    TwoPrisms s = two_prisms();
+    for (int32_t& g : s.generator) g += 10;
+    for (int32_t& l : s.layer) l += 1;
+    const TetFaceAdjacency adjacency = tet_face_adjacency(s.mesh);
+    const LayerPrismCells cells = layer_prism_cells(s.mesh, adjacency, s.generator, s.layer, s.filler);
+    EXPECT_EQ(cells.prisms, 2);
+    EXPECT_EQ(cells.cells, 2);
+
+    // Points of three layers (0, 1 and 2 in one prism) are no prism.
+    TwoPrisms tall = two_prisms();
+    tall.layer[7] = 2;
+    const LayerPrismCells mixed = layer_prism_cells(tall.mesh, adjacency, tall.generator, tall.layer, tall.filler);
+    EXPECT_EQ(mixed.prisms, 1);
+    EXPECT_EQ(mixed.cells, 4);
+}
+
 TEST(LayerPrisms, PolyMeshWritesEachPrismAsOneCellAndTheirSharedQuadAsOneFace)
 {
     const TwoPrisms s = two_prisms();
@@ -116,6 +137,43 @@ TEST(LayerPrisms, PolyMeshWritesEachPrismAsOneCellAndTheirSharedQuadAsOneFace)
     const PolyMeshCounts tets = write_polymesh(s.mesh, dir.path);
     EXPECT_EQ(tets.cells, 6);
     EXPECT_EQ(tets.quad_faces, 0);
+}
+
+// openfoam_orthogonality measures as checkMesh does, also where the quad
+// between two prisms is warped (its centre and area from OpenFOAM's fan,
+// the prisms' centres from pyramids on their faces, not their tets'
+// centroid): the largest angle agrees with checkMesh's, for the prisms and
+// for the same mesh as tets.
+TEST(LayerPrisms, OpenFoamOrthogonalityMatchesCheckMesh)
+{
+    TwoPrisms s = two_prisms();
+    s.mesh.points[6] += Vec3{-0.15, 0.1, 0.12}; // the shared quad (0, 2, 6, 4) no longer planar
+    s.mesh.points[4] += Vec3{0.05, 0.1, -0.05};
+    for (const Tet& t : s.mesh.tets)
+        ASSERT_GT(tet_volume6(s.mesh.points[t[0]], s.mesh.points[t[1]], s.mesh.points[t[2]], s.mesh.points[t[3]]), 0);
+    const TetFaceAdjacency adjacency = tet_face_adjacency(s.mesh);
+    const LayerPrismCells prisms = layer_prism_cells(s.mesh, adjacency, s.generator, s.layer, s.filler);
+    ASSERT_EQ(prisms.prisms, 2);
+    LayerPrismCells tets;
+    for (size_t t = 0; t < s.mesh.tets.size(); ++t) tets.cell_of_tet.push_back(static_cast<int32_t>(t));
+    tets.cells = static_cast<int32_t>(s.mesh.tets.size());
+    for (const LayerPrismCells* cells : std::array<const LayerPrismCells*, 2>{&prisms, &tets}) {
+        const OpenFoamOrthogonality measured =
+            openfoam_orthogonality(s.mesh, adjacency, cells->cell_of_tet, cells->cells, 90.0);
+        EXPECT_GT(measured.max_deg, 1.0); // warped: not a trivially orthogonal face
+        EXPECT_TRUE(measured.grouped_cells_beyond.empty());
+        // A bound below the worst face names the prisms on it (never a single tet).
+        const OpenFoamOrthogonality strict = openfoam_orthogonality(s.mesh, adjacency, cells->cell_of_tet, cells->cells,
+                                                                    measured.max_deg - 1e-9);
+        const std::vector<int32_t> named = cells == &prisms ? std::vector<int32_t>{0, 1} : std::vector<int32_t>{};
+        EXPECT_EQ(strict.grouped_cells_beyond, named);
+        if (!openfoam_available()) continue;
+        const TempDir dir;
+        write_polymesh(s.mesh, dir.path, {.adjacency = &adjacency, .cell_of_tet = &cells->cell_of_tet, .cells = cells->cells});
+        const CheckMeshFigures check = check_mesh(dir.path);
+        ASSERT_TRUE(check.ok) << check.log;
+        EXPECT_NEAR(check.max_non_orthogonality, measured.max_deg, 1e-5) << check.log; // checkMesh prints 8 digits
+    }
 }
 
 } // namespace

@@ -40,6 +40,7 @@ struct CheckMeshFigures {
     bool ok = false; // "Mesh OK."
     long cells = -1;
     double volume = -1; // "Total volume"
+    double max_non_orthogonality = -1; // "Mesh non-orthogonality Max:"
 };
 
 // checkMesh on a case whose polyMesh is written; system/ comes from our case
@@ -53,6 +54,8 @@ inline CheckMeshFigures check_mesh(const std::filesystem::path& case_dir)
     std::smatch m;
     if (std::regex_search(f.log, m, std::regex(R"(cells:\s+(\d+))"))) f.cells = std::stol(m[1]);
     if (std::regex_search(f.log, m, std::regex(R"(Total volume = ([0-9.eE+-]+))"))) f.volume = std::stod(m[1]);
+    if (std::regex_search(f.log, m, std::regex(R"(non-orthogonality Max: ([0-9.eE+-]+))")))
+        f.max_non_orthogonality = std::stod(m[1]);
     return f;
 }
 
