@@ -502,43 +502,45 @@ OpenFoamOrthogonality openfoam_orthogonality(const TetMesh& mesh, const TetFaceA
 {
     const GroupedFaces faces = group_internal_faces(mesh, adjacency, cell_of_tet, cells);
     const size_t internal = faces.neighbour.size();
-    std::vector<FaceGeometry> geometry(internal);
-    tbb::parallel_for(size_t(0), internal, [&](size_t f) {
-        geometry[f] = openfoam_face(mesh, faces.points.data() + faces.offsets[f], faces.offsets[f + 1] - faces.offsets[f]);
-    });
-    // The boundary faces: the open faces of the tets, outward.
-    struct Boundary {
-        int32_t cell;
-        FaceGeometry geometry;
+    // Each face's geometry is computed where it is used, never held: at
+    // tens of millions of faces a list of it would cost more than the faces.
+    const auto internal_face = [&](size_t f) {
+        return openfoam_face(mesh, faces.points.data() + faces.offsets[f], faces.offsets[f + 1] - faces.offsets[f]);
     };
-    std::vector<Boundary> boundary;
-    for (size_t t = 0; t < mesh.tets.size(); ++t)
-        for (int k = 0; k < 4; ++k)
-            if (adjacency.across[4 * t + k] < 0) {
-                const Triangle f = tet_face(mesh.tets[t], k);
-                boundary.push_back({cell_of_tet[t], openfoam_face(mesh, f.data(), 3)});
-            }
+    // visit(cell, geometry, +1 for its owner, -1 for its neighbour) over
+    // every face of every cell: the internal faces, then the open faces of
+    // the tets (outward).
+    const auto each_face = [&](const auto& visit) {
+        for (size_t f = 0; f < internal; ++f) {
+            const FaceGeometry g = internal_face(f);
+            visit(faces.owner[f], g, 1.0);
+            visit(faces.neighbour[f], g, -1.0);
+        }
+        for (size_t t = 0; t < mesh.tets.size(); ++t)
+            for (int k = 0; k < 4; ++k)
+                if (adjacency.across[4 * t + k] < 0) {
+                    const Triangle f = tet_face(mesh.tets[t], k);
+                    visit(cell_of_tet[t], openfoam_face(mesh, f.data(), 3), 1.0);
+                }
+    };
     // Cell centres (primitiveMeshCellCentresAndVols): the mean of the face
     // centres as apex, then the pyramids on the faces, their centroids
     // weighted by volume.
     std::vector<Vec3> estimate(cells), centre(cells);
-    std::vector<int32_t> count(cells, 0);
-    std::vector<double> volume(cells, 0.0);
-    const auto each_face = [&](const auto& visit) {
-        for (size_t f = 0; f < internal; ++f) {
-            visit(faces.owner[f], geometry[f], 1.0);
-            visit(faces.neighbour[f], geometry[f], -1.0);
-        }
-        for (const Boundary& b : boundary) visit(b.cell, b.geometry, 1.0);
-    };
-    each_face([&](int32_t c, const FaceGeometry& g, double) { estimate[c] += g.centre, ++count[c]; });
-    for (int32_t c = 0; c < cells; ++c) estimate[c] /= std::max(count[c], 1);
-    each_face([&](int32_t c, const FaceGeometry& g, double side) {
-        const double pyramid = side * dot(g.area, g.centre - estimate[c]);
-        centre[c] += pyramid * (0.75 * g.centre + 0.25 * estimate[c]);
-        volume[c] += pyramid;
-    });
-    for (int32_t c = 0; c < cells; ++c) centre[c] = volume[c] != 0 ? centre[c] / volume[c] : estimate[c];
+    {
+        std::vector<int32_t> count(cells, 0);
+        each_face([&](int32_t c, const FaceGeometry& g, double) { estimate[c] += g.centre, ++count[c]; });
+        for (int32_t c = 0; c < cells; ++c) estimate[c] /= std::max(count[c], 1);
+    }
+    {
+        std::vector<double> volume(cells, 0.0);
+        each_face([&](int32_t c, const FaceGeometry& g, double side) {
+            const double pyramid = side * dot(g.area, g.centre - estimate[c]);
+            centre[c] += pyramid * (0.75 * g.centre + 0.25 * estimate[c]);
+            volume[c] += pyramid;
+        });
+        for (int32_t c = 0; c < cells; ++c) centre[c] = volume[c] != 0 ? centre[c] / volume[c] : estimate[c];
+    }
 
     // checkMesh's measure: the angle between a face's area vector and the
     // join of its cells' centres.
@@ -547,7 +549,7 @@ OpenFoamOrthogonality openfoam_orthogonality(const TetMesh& mesh, const TetFaceA
     OpenFoamOrthogonality out;
     for (size_t f = 0; f < internal; ++f) {
         const Vec3 d = centre[faces.neighbour[f]] - centre[faces.owner[f]];
-        const Vec3& s = geometry[f].area;
+        const Vec3 s = internal_face(f).area;
         const double cosine = std::min(1.0, dot(d, s) / (norm(d) * norm(s) + 1e-300));
         const double angle = std::acos(std::max(-1.0, cosine)) * 180 / 3.14159265358979323846;
         out.max_deg = std::max(out.max_deg, angle);
