@@ -26,6 +26,7 @@ namespace {
 
 // checkMesh counts the faces beyond 70 degrees as severely non-orthogonal;
 // the merged cells keep a little below it (OpenFOAM's own arithmetic).
+constexpr double kSevereNonOrthogonality = 70;
 constexpr double kOpenFoamNonOrthogonality = 69.9;
 
 nlohmann::json facts_json(const SurfaceFacts& f)
@@ -135,6 +136,15 @@ std::vector<std::string> floor_warnings(const CaseConfig& config, const Pipeline
         std::snprintf(line, sizeof line,
                       "the smallest dihedral angle is %.2f degrees, below the floor of %g ([volume] min_dihedral_deg)",
                       q.min_dihedral_deg, config.min_dihedral_deg);
+        warnings.push_back(line);
+    }
+    // checkMesh's own floor: it counts a face beyond 70 degrees as
+    // severely non-orthogonal (the cell passes could not flip or move it).
+    if (v.max_non_orthogonality_deg > kSevereNonOrthogonality) {
+        std::snprintf(line, sizeof line,
+                      "the worst interior face is %.2f degrees off orthogonal, beyond the %g that checkMesh counts as "
+                      "severe; a change of M or K remeshes the cells around it",
+                      v.max_non_orthogonality_deg, kSevereNonOrthogonality);
         warnings.push_back(line);
     }
     return warnings;

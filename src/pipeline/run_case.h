@@ -27,7 +27,9 @@ struct CaseResult {
 // The run's warnings about its input (PipelineRun::warnings: an implausible
 // size for the declared unit), then one sentence per floor of the case
 // ([volume] min_layer_coverage, min_aspect_ratio, min_dihedral_deg) that the
-// volume mesh misses, with the figure; empty when there are none.
+// volume mesh misses, and a face beyond the 70 degrees of non-orthogonality
+// that checkMesh counts as severe, with the figure; empty when there are
+// none.
 std::vector<std::string> floor_warnings(const CaseConfig& config, const PipelineRun& run);
 
 // Throws InputError, IoError or StageError; a case that fails writes nothing.
