@@ -100,6 +100,16 @@ TEST(SampleCaseFlow, TubePressureDropMatchesHagenPoiseuille)
     // 24 mm tube sees Poiseuille flow.
     constexpr double nu = 1e-3, U = 0.1;
     copy_case("tube", dir, "[flow]\nviscosity = 1e-3\ninlet_speed = 0.1\n");
+    // At M = 10: the sample case's M = 7 is 5% off (docs/validation.md:
+    // -4.98% with the layer prisms), the discretisation's own error at 7
+    // layers across, so a check there would sit on its tolerance; from
+    // M = 10 on the study measures the pressure drop within 1%.
+    {
+        const std::string text = slurp(dir / "scalemesh.toml");
+        const std::string at_10 = std::regex_replace(text, std::regex(R"((^|\n)M = 7 )"), "$1M = 10 ");
+        ASSERT_NE(at_10, text) << "no M = 7 line in cases/tube/scalemesh.toml";
+        std::ofstream(dir / "scalemesh.toml") << at_10;
+    }
     const CommandResult r = run_scalemesh({"run", dir.string(), "-q"});
     ASSERT_EQ(r.exit_code, 0) << r.err;
     std::string log;
@@ -138,7 +148,7 @@ TEST(SampleCaseFlow, TubePressureDropMatchesHagenPoiseuille)
     const double expected = 8 * std::numbers::pi * nu * L * Q / (area * area);
     std::printf("tube: pressure drop over %g mm %g m^2/s^2, Hagen-Poiseuille %g, ratio %.4f\n", L * 1e3, dp, expected,
                 dp / expected);
-    EXPECT_NEAR(dp / expected, 1.0, 0.05);
+    EXPECT_NEAR(dp / expected, 1.0, 0.02);
 }
 
 TEST(SampleCaseFlow, BifurcationInflowEqualsTheSumOfOutflows)
