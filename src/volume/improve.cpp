@@ -1446,6 +1446,46 @@ bool orthogonalize_point(TetEditor& ed, int32_t v, const LayerBound& layer, cons
     return !(best_position == origin);
 }
 
+// Splits the interior edge (q, s) by a new free point m where the worst
+// face of the new tets is best, when that beats the old tets' worst face
+// (ortho_better, so the floors hold); then m is moved as any free point.
+// Never used on a surface edge. For a face beyond the floor whose tets have
+// no point that may move.
+bool split_edge_for_orthogonality(TetEditor& ed, int32_t q, int32_t s, const OrthoFloors& floors)
+{
+    const std::vector<int32_t> around = ed.around_edge(q, s);
+    if (around.empty()) return false;
+    std::vector<Tet> old;
+    for (int32_t t : around) old.push_back(ed.tet(t));
+    const Shape before = shape_of(ed, old, face_links(ed, old, around));
+    Vec3 centroid;
+    int count = 0;
+    for (const Tet& t : old)
+        for (int32_t v : t)
+            if (v != q && v != s) centroid += ed.point(v), ++count;
+    centroid /= count;
+    const int32_t m = ed.add_point(0.5 * (ed.point(q) + ed.point(s)));
+    const std::vector<Tet> fresh = split_at(ed, around, q, s, m);
+    const std::vector<FaceLink> links = face_links(ed, fresh, around);
+    Shape best = before;
+    Vec3 best_position;
+    bool found = false;
+    for (double along : {0.5, 0.35, 0.65})
+        for (double w : {0.0, 0.05, 0.1, 0.2, 0.3, 0.4}) {
+            ed.point(m) = (1 - w) * ((1 - along) * ed.point(q) + along * ed.point(s)) + w * centroid;
+            const Shape now = shape_of(ed, fresh, links);
+            if (ortho_better(best, now, floors)) best = now, best_position = ed.point(m), found = true;
+        }
+    if (!found) {
+        ed.drop_last_point();
+        return false;
+    }
+    ed.point(m) = best_position;
+    ed.replace(around, fresh);
+    orthogonalize_point(ed, m, {}, floors);
+    return true;
+}
+
 } // namespace
 
 OrthoCounts improve_orthogonality(TetMesh& mesh, int32_t surface_points, double max_angle_deg, int sweeps,
@@ -1564,6 +1604,35 @@ OrthoCounts improve_orthogonality(TetMesh& mesh, int32_t surface_points, double 
                         ++counts.moves, ++changed, moved.push_back(v);
         }
         if (changed == 0) break;
+    }
+    // Last resort for a face still beyond the solver's floor (floors.ortho)
+    // where flips and moves found nothing (its tets' points all surface
+    // nodes or held layer points): a new free point on an interior edge of
+    // one of its two tets, twice at most.
+    const double floor_cosine = std::cos(floors.ortho * M_PI / 180);
+    const EdgeSet surface_edges = edge_set(mesh.boundary_faces);
+    for (int round = 0; round < 2; ++round) {
+        scan();
+        int64_t splits = 0;
+        for (const auto& [t, k, u] : bad) {
+            if (!ed.alive(t) || !ed.alive(u) || !(face_cosine(t, u) < floor_cosine)) continue;
+            bool split = false;
+            for (int32_t w : {t, u}) {
+                if (split) break;
+                const Tet tet = ed.tet(w);
+                for (int i = 0; i < 4 && !split; ++i)
+                    for (int j = i + 1; j < 4 && !split; ++j)
+                        split = !surface_edges.count(edge_key(tet[i], tet[j])) &&
+                                split_edge_for_orthogonality(ed, tet[i], tet[j], floors);
+            }
+            if (split) {
+                ++splits;
+                pinned.resize(ed.point_count(), 0);
+                moved.push_back(static_cast<int32_t>(ed.point_count()) - 1);
+            }
+        }
+        counts.splits += splits;
+        if (splits == 0) break;
     }
     counts.flips = flips.total();
     ed.commit();

@@ -122,6 +122,7 @@ int64_t split_surface_slivers(TetMesh& mesh, int32_t surface_points, double thre
 struct OrthoCounts {
     int64_t faces_before = 0; // interior faces beyond the bound at the start
     int64_t flips = 0, moves = 0;
+    int64_t splits = 0; // interior edges split for a face beyond 70 degrees (the last resort)
 };
 
 // Face non-orthogonality as OpenFOAM measures it (the angle between an
@@ -134,7 +135,10 @@ struct OrthoCounts {
 // faces it changes and leaves no new tet below aspect ratio 0.1 or a
 // dihedral angle of 10 degrees (or the old tets' own, if lower). Surface
 // points never move; a layer point stays within layers[v].slack of
-// layers[v].home (one already outside stays put). Serial over the whole
+// layers[v].home (one already outside stays put). Then, as a last resort,
+// a face still beyond 70 degrees gets an interior edge of one of its tets
+// split by a new free point under the same rule (no surface edge is split,
+// so the boundary is bit-identical), twice at most. Serial over the whole
 // mesh: the same result on any number of threads.
 OrthoCounts improve_orthogonality(TetMesh& mesh, int32_t surface_points, double max_angle_deg, int sweeps,
                                   const std::vector<LayerBound>& layers = {});

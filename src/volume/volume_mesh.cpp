@@ -416,7 +416,7 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
         for (int round = 0; round < 3; ++round) {
             const OrthoCounts ortho = improve_orthogonality(mesh, n, 65.0, round == 0 ? 12 : 4, held);
             if (round == 0) result.ortho_faces_before = ortho.faces_before;
-            result.ortho_flips += ortho.flips, result.ortho_moves += ortho.moves;
+            result.ortho_flips += ortho.flips, result.ortho_moves += ortho.moves, result.ortho_splits += ortho.splits;
             const DihedralCounts again = raise_dihedral_angles(mesh, n, kDihedralTarget, 8, held);
             result.dihedral_flips += again.flips, result.dihedral_moves += again.moves;
             result.dihedral_splits += again.splits;
@@ -434,7 +434,7 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
                 released[v] = {}, ++result.released_layer_points;
         if (result.released_layer_points > 0) {
             const OrthoCounts ortho = improve_orthogonality(mesh, n, 65.0, 4, released);
-            result.ortho_flips += ortho.flips, result.ortho_moves += ortho.moves;
+            result.ortho_flips += ortho.flips, result.ortho_moves += ortho.moves, result.ortho_splits += ortho.splits;
             const DihedralCounts again = raise_dihedral_angles(mesh, n, kDihedralTarget, 8, released);
             result.dihedral_flips += again.flips, result.dihedral_moves += again.moves;
             result.dihedral_splits += again.splits;
