@@ -1446,15 +1446,17 @@ bool orthogonalize_point(TetEditor& ed, int32_t v, const LayerBound& layer, cons
     return !(best_position == origin);
 }
 
-// Splits the interior edge (q, s) by a new free point m where the worst
-// face of the new tets is best, when that beats the old tets' worst face
-// (ortho_better, so the floors hold); then m is moved as any free point.
-// Never used on a surface edge. For a face beyond the floor whose tets have
-// no point that may move.
-bool split_edge_for_orthogonality(TetEditor& ed, int32_t q, int32_t s, const OrthoFloors& floors)
+// Splits the interior edge (q, s) by a new free point m: every tet (q, s,
+// x, y) at the edge becomes (m, s, x, y) and (q, m, x, y). m is tried at
+// points of the edge pulled towards the centroid of its ring and kept where
+// `better(best so far, new tets' shape)` holds last, starting from the old
+// tets' shape. Returns m, or -1 with nothing changed when no place beats the
+// old tets. Never used on a surface edge.
+template <class Better>
+int32_t split_edge_where_better(TetEditor& ed, int32_t q, int32_t s, const Better& better)
 {
     const std::vector<int32_t> around = ed.around_edge(q, s);
-    if (around.empty()) return false;
+    if (around.empty()) return -1;
     std::vector<Tet> old;
     for (int32_t t : around) old.push_back(ed.tet(t));
     const Shape before = shape_of(ed, old, face_links(ed, old, around));
@@ -1474,14 +1476,25 @@ bool split_edge_for_orthogonality(TetEditor& ed, int32_t q, int32_t s, const Ort
         for (double w : {0.0, 0.05, 0.1, 0.2, 0.3, 0.4}) {
             ed.point(m) = (1 - w) * ((1 - along) * ed.point(q) + along * ed.point(s)) + w * centroid;
             const Shape now = shape_of(ed, fresh, links);
-            if (ortho_better(best, now, floors)) best = now, best_position = ed.point(m), found = true;
+            if (better(best, now)) best = now, best_position = ed.point(m), found = true;
         }
     if (!found) {
         ed.drop_last_point();
-        return false;
+        return -1;
     }
     ed.point(m) = best_position;
     ed.replace(around, fresh);
+    return m;
+}
+
+// The edge split for a face beyond the floor whose tets have no point that
+// may move: where the worst face of the new tets is best (ortho_better, so
+// the floors hold); then m is moved as any free point.
+bool split_edge_for_orthogonality(TetEditor& ed, int32_t q, int32_t s, const OrthoFloors& floors)
+{
+    const int32_t m =
+        split_edge_where_better(ed, q, s, [&](const Shape& a, const Shape& b) { return ortho_better(a, b, floors); });
+    if (m < 0) return false;
     orthogonalize_point(ed, m, {}, floors);
     return true;
 }
@@ -1721,36 +1734,9 @@ bool raise_point_dihedral(TetEditor& ed, int32_t v, const LayerBound& layer, con
 // (dihedral_better); then m is smoothed. Never used on a surface edge.
 bool split_edge_for_dihedral(TetEditor& ed, int32_t q, int32_t s, const OrthoFloors& floors)
 {
-    const std::vector<int32_t> around = ed.around_edge(q, s);
-    if (around.empty()) return false;
-    std::vector<Tet> old;
-    for (int32_t t : around) old.push_back(ed.tet(t));
-    const Shape before = shape_of(ed, old, face_links(ed, old, around));
-    Vec3 centroid;
-    int count = 0;
-    for (const Tet& t : old)
-        for (int32_t v : t)
-            if (v != q && v != s) centroid += ed.point(v), ++count;
-    centroid /= count;
-    const Vec3 mid = 0.5 * (ed.point(q) + ed.point(s));
-    const int32_t m = ed.add_point(mid);
-    const std::vector<Tet> fresh = split_at(ed, around, q, s, m);
-    const std::vector<FaceLink> links = face_links(ed, fresh, around);
-    Shape best = before;
-    Vec3 best_position;
-    bool found = false;
-    for (double along : {0.5, 0.35, 0.65})
-        for (double w : {0.0, 0.05, 0.1, 0.2, 0.3, 0.4}) {
-            ed.point(m) = (1 - w) * ((1 - along) * ed.point(q) + along * ed.point(s)) + w * centroid;
-            const Shape now = shape_of(ed, fresh, links);
-            if (dihedral_better(best, now, floors)) best = now, best_position = ed.point(m), found = true;
-        }
-    if (!found) {
-        ed.drop_last_point();
-        return false;
-    }
-    ed.point(m) = best_position;
-    ed.replace(around, fresh);
+    const int32_t m =
+        split_edge_where_better(ed, q, s, [&](const Shape& a, const Shape& b) { return dihedral_better(a, b, floors); });
+    if (m < 0) return false;
     raise_point_dihedral(ed, m, {}, floors);
     return true;
 }
