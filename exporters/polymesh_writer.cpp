@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <sstream>
@@ -496,9 +497,9 @@ FaceGeometry openfoam_face(const TetMesh& mesh, const int32_t* p, int count)
 
 } // namespace
 
-OpenFoamOrthogonality openfoam_orthogonality(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
-                                             const std::vector<int32_t>& cell_of_tet, int32_t cells,
-                                             double bound_deg)
+OpenFoamCellChecks openfoam_cell_checks(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
+                                        const std::vector<int32_t>& cell_of_tet, int32_t cells,
+                                        const OpenFoamCellBounds& bounds)
 {
     const GroupedFaces faces = group_internal_faces(mesh, adjacency, cell_of_tet, cells);
     const size_t internal = faces.neighbour.size();
@@ -507,20 +508,23 @@ OpenFoamOrthogonality openfoam_orthogonality(const TetMesh& mesh, const TetFaceA
     const auto internal_face = [&](size_t f) {
         return openfoam_face(mesh, faces.points.data() + faces.offsets[f], faces.offsets[f + 1] - faces.offsets[f]);
     };
-    // visit(cell, geometry, +1 for its owner, -1 for its neighbour) over
-    // every face of every cell: the internal faces, then the open faces of
-    // the tets (outward).
+    // visit(cell, geometry, +1 for its owner, -1 for its neighbour, the
+    // face's points, their count, the face's other cell or -1) over every
+    // face of every cell: the internal faces, then the open faces of the
+    // tets (outward).
     const auto each_face = [&](const auto& visit) {
         for (size_t f = 0; f < internal; ++f) {
             const FaceGeometry g = internal_face(f);
-            visit(faces.owner[f], g, 1.0);
-            visit(faces.neighbour[f], g, -1.0);
+            const int32_t* p = faces.points.data() + faces.offsets[f];
+            const int count = static_cast<int>(faces.offsets[f + 1] - faces.offsets[f]);
+            visit(faces.owner[f], g, 1.0, p, count, faces.neighbour[f]);
+            visit(faces.neighbour[f], g, -1.0, p, count, faces.owner[f]);
         }
         for (size_t t = 0; t < mesh.tets.size(); ++t)
             for (int k = 0; k < 4; ++k)
                 if (adjacency.across[4 * t + k] < 0) {
                     const Triangle f = tet_face(mesh.tets[t], k);
-                    visit(cell_of_tet[t], openfoam_face(mesh, f.data(), 3), 1.0);
+                    visit(cell_of_tet[t], openfoam_face(mesh, f.data(), 3), 1.0, f.data(), 3, -1);
                 }
     };
     // Cell centres (primitiveMeshCellCentresAndVols): the mean of the face
@@ -529,12 +533,14 @@ OpenFoamOrthogonality openfoam_orthogonality(const TetMesh& mesh, const TetFaceA
     std::vector<Vec3> estimate(cells), centre(cells);
     {
         std::vector<int32_t> count(cells, 0);
-        each_face([&](int32_t c, const FaceGeometry& g, double) { estimate[c] += g.centre, ++count[c]; });
+        each_face([&](int32_t c, const FaceGeometry& g, double, const int32_t*, int, int32_t) {
+            estimate[c] += g.centre, ++count[c];
+        });
         for (int32_t c = 0; c < cells; ++c) estimate[c] /= std::max(count[c], 1);
     }
     {
         std::vector<double> volume(cells, 0.0);
-        each_face([&](int32_t c, const FaceGeometry& g, double side) {
+        each_face([&](int32_t c, const FaceGeometry& g, double side, const int32_t*, int, int32_t) {
             const double pyramid = side * dot(g.area, g.centre - estimate[c]);
             centre[c] += pyramid * (0.75 * g.centre + 0.25 * estimate[c]);
             volume[c] += pyramid;
@@ -542,24 +548,59 @@ OpenFoamOrthogonality openfoam_orthogonality(const TetMesh& mesh, const TetFaceA
         for (int32_t c = 0; c < cells; ++c) centre[c] = volume[c] != 0 ? centre[c] / volume[c] : estimate[c];
     }
 
-    // checkMesh's measure: the angle between a face's area vector and the
-    // join of its cells' centres.
     std::vector<int32_t> tets_in(cells, 0);
     for (int32_t c : cell_of_tet) ++tets_in[c];
-    OpenFoamOrthogonality out;
-    for (size_t f = 0; f < internal; ++f) {
-        const Vec3 d = centre[faces.neighbour[f]] - centre[faces.owner[f]];
-        const Vec3 s = internal_face(f).area;
-        const double cosine = std::min(1.0, dot(d, s) / (norm(d) * norm(s) + 1e-300));
-        const double angle = std::acos(std::max(-1.0, cosine)) * 180 / 3.14159265358979323846;
-        out.max_deg = std::max(out.max_deg, angle);
-        if (!(angle <= bound_deg))
-            for (int32_t c : {faces.owner[f], faces.neighbour[f]})
-                if (tets_in[c] > 1) out.grouped_cells_beyond.push_back(c);
-    }
-    std::sort(out.grouped_cells_beyond.begin(), out.grouped_cells_beyond.end());
-    out.grouped_cells_beyond.erase(std::unique(out.grouped_cells_beyond.begin(), out.grouped_cells_beyond.end()),
-                                   out.grouped_cells_beyond.end());
+    OpenFoamCellChecks out;
+    out.min_pyramid_height = std::numeric_limits<double>::infinity();
+    // A face beyond a bound: its cells of several tets are split back.
+    const auto fail = [&](int32_t a, int32_t b) {
+        for (int32_t c : {a, b})
+            if (c >= 0 && tets_in[c] > 1) out.grouped_cells_failing.push_back(c);
+    };
+    // Skewness (faceSkewness, boundaryFaceSkewness): the face centre's
+    // offset from where the join d of the cell centres crosses the face,
+    // over the face's extent in that direction (at least 0.2 |d|; on the
+    // boundary, d from the cell centre to the face, at least 0.4 |d|).
+    const auto skewness = [&](const FaceGeometry& g, const int32_t* p, int count, const Vec3& from, const Vec3& d,
+                              double least) {
+        const Vec3 to_face = g.centre - from;
+        const Vec3 sv = to_face - (dot(g.area, to_face) / (dot(g.area, d) + 1e-300)) * d;
+        const Vec3 sv_hat = sv / (norm(sv) + 1e-300);
+        double extent = least * norm(d) + 1e-300;
+        for (int i = 0; i < count; ++i) extent = std::max(extent, std::abs(dot(sv_hat, mesh.points[p[i]] - g.centre)));
+        return norm(sv) / extent;
+    };
+    // Face pyramids (facePyramidVolume) and skewness, face by face, from
+    // the owner's side; non-orthogonality on the internal faces.
+    each_face([&](int32_t c, const FaceGeometry& g, double side, const int32_t* p, int count, int32_t other) {
+        const double area = norm(g.area);
+        const double height = side * dot(g.area, g.centre - centre[c]) / (area + 1e-300);
+        const double relative = height / (std::sqrt(area) + 1e-300);
+        out.min_pyramid_height = std::min(out.min_pyramid_height, relative);
+        if (!(relative > bounds.pyramid_height)) ++out.flat_pyramids, fail(c, other);
+        if (!(height > 0)) ++out.checkmesh_failures;
+        if (side < 0) return; // the rest once per face
+        double skew;
+        if (other >= 0) {
+            const Vec3 d = centre[other] - centre[c];
+            const double cosine = std::min(1.0, dot(d, g.area) / (norm(d) * area + 1e-300));
+            const double angle = std::acos(std::max(-1.0, cosine)) * 180 / 3.14159265358979323846;
+            out.max_non_orthogonality_deg = std::max(out.max_non_orthogonality_deg, angle);
+            if (!(angle <= bounds.non_orthogonality_deg)) ++out.faces_beyond_orthogonality, fail(c, other);
+            skew = skewness(g, p, count, centre[c], d, 0.2);
+        } else {
+            const Vec3 normal = g.area / (area + 1e-300);
+            // d reaches the face only, half the way to a mirrored cell.
+            skew = skewness(g, p, count, centre[c], normal * dot(normal, g.centre - centre[c]), 0.4);
+        }
+        out.max_skewness = std::max(out.max_skewness, skew);
+        if (!(skew <= bounds.skewness)) ++out.skew_faces, fail(c, other);
+        if (!(skew <= 4)) ++out.checkmesh_failures; // primitiveMesh::skewThreshold_
+    });
+    if (!std::isfinite(out.min_pyramid_height)) out.min_pyramid_height = 0;
+    std::sort(out.grouped_cells_failing.begin(), out.grouped_cells_failing.end());
+    out.grouped_cells_failing.erase(std::unique(out.grouped_cells_failing.begin(), out.grouped_cells_failing.end()),
+                                    out.grouped_cells_failing.end());
     return out;
 }
 

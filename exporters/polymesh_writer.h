@@ -63,24 +63,51 @@ struct PolyMeshCounts {
 PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& case_dir,
                               const PolyMeshOptions& options = {});
 
-struct OpenFoamOrthogonality {
-    double max_deg = 0;                         // the worst internal face
-    std::vector<int32_t> grouped_cells_beyond; // cells of more than one tet on a face beyond the bound, ascending
+// Bounds below checkMesh's own limits (70 degrees of non-orthogonality,
+// skewness 4, a positive pyramid on every face of every cell), with a
+// margin for the round-off between this measure and OpenFOAM's.
+struct OpenFoamCellBounds {
+    double non_orthogonality_deg = 69.9;
+    double skewness = 3.8;
+    // The cell centre's height above each of its faces, as a fraction of
+    // the square root of the face's area: a face pyramid flatter than this
+    // counts as wrongly oriented (checkMesh fails only a negative one).
+    double pyramid_height = 1e-2;
 };
 
-// Face non-orthogonality of the polyMesh write_polymesh would write for
+struct OpenFoamCellChecks {
+    double max_non_orthogonality_deg = 0; // the worst internal face
+    double max_skewness = 0;              // the worst face, internal or boundary
+    double min_pyramid_height = 0;        // the flattest face pyramid, as OpenFoamCellBounds::pyramid_height measures
+    int64_t faces_beyond_orthogonality = 0, skew_faces = 0, flat_pyramids = 0; // beyond the bounds
+    std::vector<int32_t> grouped_cells_failing; // cells of more than one tet on a face beyond a bound, ascending
+    // Faces checkMesh itself would fail ("Failed N mesh checks"): skewness
+    // above 4, or a face pyramid that is not positive. (A face beyond 70
+    // degrees of non-orthogonality it reports as severe, but passes.)
+    int64_t checkmesh_failures = 0;
+};
+
+// OpenFOAM's own cell checks on the polyMesh write_polymesh would write for
 // `cell_of_tet` (the same faces: quads between layer prisms as it joins
-// them), measured as OpenFOAM measures it: face centres and area vectors of
-// the polygons by their triangle fans (primitiveMeshFaceCentresAndAreas),
-// cell centres by pyramids on the faces from the mean of the face centres
-// (primitiveMeshCellCentresAndVols), the angle between a face's area vector
-// and the join of its two cells' centres (checkMesh's faceOrthogonality).
+// them), measured as checkMesh measures them:
+// - face centres and area vectors of the polygons by their triangle fans
+//   (primitiveMeshFaceCentresAndAreas);
+// - cell centres by pyramids on the faces from the mean of the face centres
+//   (primitiveMeshCellCentresAndVols);
+// - non-orthogonality, the angle between a face's area vector and the join
+//   of its two cells' centres (faceOrthogonality);
+// - skewness, the face centre's distance from where that join crosses the
+//   face, over the face's extent that way (faceSkewness, boundary faces
+//   against their normal);
+// - face pyramids, the volume of each face with each of its cells' centres
+//   as apex, which must be positive (facePyramidVolume: "faces are
+//   incorrectly oriented" when not).
 // A cell of several tets has a centre off its tets' centroid where its
-// faces are warped, so a face next to it can pass a bound on the tets and
-// fail it here. The cells of more than one tet on a face beyond `bound_deg`
-// are returned for the caller to split.
-OpenFoamOrthogonality openfoam_orthogonality(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
-                                             const std::vector<int32_t>& cell_of_tet, int32_t cells,
-                                             double bound_deg);
+// faces are warped, so a face of it or next to it can pass a check on the
+// tets and fail it here. The cells of more than one tet on a face beyond a
+// bound are returned for the caller to split back into tets.
+OpenFoamCellChecks openfoam_cell_checks(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
+                                        const std::vector<int32_t>& cell_of_tet, int32_t cells,
+                                        const OpenFoamCellBounds& bounds = {});
 
 } // namespace scalemesh

@@ -145,8 +145,9 @@ void ProgressDisplay::summary(const CaseConfig& config, const CaseResult& result
         std::fprintf(o, "  cells     %lld tetrahedra, %lld points", static_cast<long long>(v.mesh.tets.size()),
                      static_cast<long long>(v.mesh.points.size()));
         if (result.polymesh)
-            std::fprintf(o, "; OpenFOAM: %lld cells, %lld of them layer prisms", static_cast<long long>(result.polymesh->cells),
-                         static_cast<long long>(result.layer_prisms));
+            std::fprintf(o, "; OpenFOAM: %lld cells, %lld of them layer prisms (%.1f%% of wall faces x layers intact)",
+                         static_cast<long long>(result.polymesh->cells), static_cast<long long>(result.layer_prisms),
+                         100 * intact_prism_share(result));
         std::fprintf(o, "\n");
         const LayerAccount& a = v.layers;
         std::fprintf(o, "  layers    %lld of %lld wall nodes with D >= L_min keep all %d layers (%.2f%%), %.2f on average",

@@ -27,7 +27,6 @@ namespace {
 // checkMesh counts the faces beyond 70 degrees as severely non-orthogonal;
 // the merged cells keep a little below it (OpenFOAM's own arithmetic).
 constexpr double kSevereNonOrthogonality = 70;
-constexpr double kOpenFoamNonOrthogonality = 69.9;
 
 nlohmann::json facts_json(const SurfaceFacts& f)
 {
@@ -103,6 +102,29 @@ nlohmann::json layers_json(const LayerAccount& a, const SurfaceMesh& surface, co
 }
 
 } // namespace
+
+double intact_prism_share(const CaseResult& result)
+{
+    if (!result.polymesh || !result.run.volume) return 0;
+    const int layermaking = result.run.volume->layers.layermaking;
+    int64_t wall_faces = 0;
+    const std::vector<int64_t>& patches = result.polymesh->patch_faces;
+    for (size_t p = 0; p < patches.size(); ++p)
+        if (p == 0 || p > result.run.caps.size()) wall_faces += patches[p];
+    const int64_t wanted = wall_faces * layermaking;
+    return wanted > 0 ? static_cast<double>(result.layer_prisms) / static_cast<double>(wanted) : 0;
+}
+
+std::vector<std::string> openfoam_check_warnings(const OpenFoamCellChecks& checks)
+{
+    if (checks.checkmesh_failures == 0) return {};
+    char line[512];
+    std::snprintf(line, sizeof line,
+                  "%lld faces of the OpenFOAM cells would fail checkMesh (skewness above 4, or a face pyramid that is "
+                  "not positive; worst skewness %.2f); a change of M or K remeshes the cells around them",
+                  static_cast<long long>(checks.checkmesh_failures), checks.max_skewness);
+    return {line};
+}
 
 std::vector<std::string> floor_warnings(const CaseConfig& config, const PipelineRun& run)
 {
@@ -326,6 +348,11 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
                             {"surface_facet_flips", v.facet_flips},
                             {"surface_caps_peeled", v.caps_peeled},
                             {"insertion_retries", v.insertion_retries},
+                            {"layer_prism_groups",
+                             {{"after_insertion", v.prism_groups.after_insertion},
+                              {"after_flips", v.prism_groups.after_flips},
+                              {"after_slivers", v.prism_groups.after_slivers},
+                              {"after_cell_passes", v.prism_groups.after_cell_passes}}},
                             {"non_orthogonality_pass",
                              {{"faces_above_65_deg_before", v.ortho_faces_before},
                               {"flips", v.ortho_flips},
@@ -355,14 +382,21 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
         report["volume"] = "not built: [remeshing] cycles = 0 or [volume] enabled = false";
     }
     if (result.polymesh) {
+        const OpenFoamCellChecks& checks = result.openfoam_checks;
         report["openfoam"] = {{"cells", result.polymesh->cells},
                               {"faces", result.polymesh->faces},
                               {"internal_faces", result.polymesh->internal_faces},
                               {"layer_prisms", result.layer_prisms},
                               {"layer_prisms_refused", result.layer_prisms_refused},
-                              {"max_non_orthogonality_deg", config.layer_prisms
-                                                                ? nlohmann::json(result.max_non_orthogonality_deg)
-                                                                : nlohmann::json(nullptr)},
+                              {"intact_prism_share", intact_prism_share(result)},
+                              {"max_non_orthogonality_deg", result.max_non_orthogonality_deg},
+                              {"checks",
+                               {{"max_skewness", checks.max_skewness},
+                                {"min_pyramid_height", checks.min_pyramid_height},
+                                {"faces_beyond_orthogonality", checks.faces_beyond_orthogonality},
+                                {"skew_faces", checks.skew_faces},
+                                {"flat_pyramids", checks.flat_pyramids},
+                                {"checkmesh_failures", checks.checkmesh_failures}}},
                               {"quad_faces", result.polymesh->quad_faces},
                               {"patch_faces", result.polymesh->patch_faces},
                               {"units", "m"},
@@ -446,30 +480,33 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
             // Walls are OpenFOAM `wall` patches, openings generic `patch`es.
             std::vector<std::string> types = {"wall"};
             for (size_t c = 0; c < result.run.caps.size(); ++c) types.push_back("patch");
+            // OpenFOAM's own checks on the cells before they are written:
+            // a layer prism on a face that checkMesh would fail (beyond 70
+            // degrees, too skew, or a face pyramid not positive from the
+            // prism's centre as OpenFOAM computes it) is split back into its
+            // tets, until there is none. What is left on single tets is
+            // warned of.
+            const VolumeResult& v = *result.run.volume;
+            OpenFoamCellChecks checks;
+            const auto check = [&](const LayerPrismCells& c) {
+                checks = openfoam_cell_checks(mesh, v.adjacency, c.cell_of_tet, c.cells);
+                return checks.grouped_cells_failing;
+            };
             LayerPrismCells cells;
             if (config.layer_prisms) {
-                const VolumeResult& v = *result.run.volume;
-                // OpenFOAM's centres of the merged cells differ slightly from
-                // their tets' centroid: a prism next to a face that checkMesh
-                // would find beyond 70 degrees is split back into its tets,
-                // until there is none (a round splits only prisms, so at
-                // worst every prism).
-                std::vector<char> apart(mesh.tets.size(), 0);
-                for (;;) {
-                    cells = layer_prism_cells(mesh, v.adjacency, v.point_generator, v.point_layer, v.point_filler,
-                                              68.0, &apart);
-                    const OpenFoamOrthogonality check =
-                        openfoam_orthogonality(mesh, v.adjacency, cells.cell_of_tet, cells.cells, kOpenFoamNonOrthogonality);
-                    result.max_non_orthogonality_deg = check.max_deg;
-                    if (check.grouped_cells_beyond.empty()) break;
-                    std::vector<char> split(cells.cells, 0);
-                    for (int32_t c : check.grouped_cells_beyond) split[c] = 1;
-                    for (size_t t = 0; t < mesh.tets.size(); ++t)
-                        if (split[cells.cell_of_tet[t]]) apart[t] = 1;
-                }
-                result.layer_prisms = cells.prisms;
-                result.layer_prisms_refused = cells.refused;
+                cells = checked_layer_prism_cells(mesh, v.adjacency, v.point_generator, v.point_layer, v.point_filler,
+                                                  68.0, check);
+            } else {
+                cells.cells = static_cast<int32_t>(mesh.tets.size());
+                cells.cell_of_tet.resize(mesh.tets.size());
+                for (size_t t = 0; t < mesh.tets.size(); ++t) cells.cell_of_tet[t] = static_cast<int32_t>(t);
+                check(cells);
             }
+            result.layer_prisms = cells.prisms;
+            result.layer_prisms_refused = cells.refused;
+            result.max_non_orthogonality_deg = checks.max_non_orthogonality_deg;
+            result.openfoam_checks = checks;
+            for (const std::string& w : openfoam_check_warnings(checks)) result.warnings.push_back(w);
             const PolyMeshCounts counts =
                 write_polymesh(mesh, dir, {.binary = config.openfoam_binary, .scale = 1e-3, .patch_types = types,
                                      .adjacency = &result.run.volume->adjacency,

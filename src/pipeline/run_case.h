@@ -19,7 +19,8 @@ struct CaseResult {
     int64_t layer_prisms = 0;                   // its cells of three tets filling a layer prism
     int64_t layer_prisms_refused = 0;           // prisms filled by three tets left as tets (not star-shaped, or a
                                                 // face beyond the bound by the tets' or by OpenFOAM's measure)
-    double max_non_orthogonality_deg = 0;       // of the written cells, as OpenFOAM measures it (layer prisms on)
+    double max_non_orthogonality_deg = 0;       // of the written cells, as OpenFOAM measures it
+    OpenFoamCellChecks openfoam_checks;         // OpenFOAM's own checks on the written cells
     bool flow_case = false;                     // whether 0/U and 0/p were written
     std::vector<std::string> warnings;          // the run's floors it missed (floor_warnings)
 };
@@ -31,6 +32,16 @@ struct CaseResult {
 // that checkMesh counts as severe, with the figure; empty when there are
 // none.
 std::vector<std::string> floor_warnings(const CaseConfig& config, const PipelineRun& run);
+
+// A sentence when faces of the OpenFOAM cells would still fail checkMesh
+// (OpenFoamCellChecks::checkmesh_failures: only faces between single tets
+// can, since the prisms on them are split back), empty when none would.
+std::vector<std::string> openfoam_check_warnings(const OpenFoamCellChecks& checks);
+
+// The layer prisms written as single cells, over the wall faces times the
+// layers that make prisms (layers.layermaking): 1 when every wall face
+// carries a whole stack of intact prisms. 0 without an OpenFOAM case.
+double intact_prism_share(const CaseResult& result);
 
 // Throws InputError, IoError or StageError; a case that fails writes nothing.
 // `threads`, when given, overrides the case file's [run] threads;

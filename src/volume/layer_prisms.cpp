@@ -51,6 +51,33 @@ PrismKey prism_of(const Tet& tet, const std::vector<int32_t>& generator, const s
     return {{g[0], g[1], g[2]}, low};
 }
 
+// The tets of each layer prism filled by exactly three tets, ascending, in
+// the order of the prisms' keys.
+std::vector<std::array<int32_t, 3>> three_tet_groups(const TetMesh& mesh, const std::vector<int32_t>& point_generator,
+                                                     const std::vector<int32_t>& point_layer,
+                                                     const std::vector<char>& point_filler)
+{
+    // Each tet's prism, where it has one.
+    const size_t tets = mesh.tets.size();
+    std::vector<PrismKey> key(tets);
+    tbb::parallel_for(size_t(0), tets,
+                      [&](size_t t) { key[t] = prism_of(mesh.tets[t], point_generator, point_layer, point_filler); });
+    std::vector<int32_t> candidates;
+    for (size_t t = 0; t < tets; ++t)
+        if (key[t].layer != kNoPrism) candidates.push_back(static_cast<int32_t>(t));
+    tbb::parallel_sort(candidates.begin(), candidates.end(), [&](int32_t a, int32_t b) {
+        return key[a] == key[b] ? a < b : key[a] < key[b];
+    });
+    std::vector<std::array<int32_t, 3>> groups;
+    for (size_t i = 0; i < candidates.size();) {
+        size_t j = i + 1;
+        while (j < candidates.size() && key[candidates[j]] == key[candidates[i]]) ++j;
+        if (j - i == 3) groups.push_back({candidates[i], candidates[i + 1], candidates[i + 2]});
+        i = j;
+    }
+    return groups;
+}
+
 // The volume-weighted centroid of tets `group`, or nothing if their volume
 // is not positive.
 std::optional<Vec3> group_centroid(const TetMesh& mesh, const std::array<int32_t, 3>& group)
@@ -107,29 +134,13 @@ LayerPrismCells layer_prism_cells(const TetMesh& mesh, const TetFaceAdjacency& a
                                     ", " + std::to_string(point_layer.size()) + " and " +
                                     std::to_string(point_filler.size()) + " entries for " + std::to_string(n) +
                                     " points");
-    // Each tet's prism, where it has one.
-    const size_t tets = mesh.tets.size();
-    std::vector<PrismKey> key(tets);
-    tbb::parallel_for(size_t(0), tets,
-                      [&](size_t t) { key[t] = prism_of(mesh.tets[t], point_generator, point_layer, point_filler); });
-    std::vector<int32_t> candidates;
-    for (size_t t = 0; t < tets; ++t)
-        if (key[t].layer != kNoPrism) candidates.push_back(static_cast<int32_t>(t));
-    tbb::parallel_sort(candidates.begin(), candidates.end(), [&](int32_t a, int32_t b) {
-        return key[a] == key[b] ? a < b : key[a] < key[b];
-    });
-
     // Runs of exactly three tets of one prism become one cell, led by the
     // first of them.
+    const size_t tets = mesh.tets.size();
     LayerPrismCells out;
     std::vector<int32_t> leader(tets, -1);
-    std::vector<std::array<int32_t, 3>> groups;
-    for (size_t i = 0; i < candidates.size();) {
-        size_t j = i + 1;
-        while (j < candidates.size() && key[candidates[j]] == key[candidates[i]]) ++j;
-        if (j - i == 3) groups.push_back({candidates[i], candidates[i + 1], candidates[i + 2]});
-        i = j;
-    }
+    const std::vector<std::array<int32_t, 3>> groups =
+        three_tet_groups(mesh, point_generator, point_layer, point_filler);
     // Each tet's centroid, and each prism's in place of its tets' while it
     // is accepted: star-shaped from its centroid, and (below) no face beyond
     // the bound.
@@ -196,6 +207,38 @@ LayerPrismCells layer_prism_cells(const TetMesh& mesh, const TetFaceAdjacency& a
         out.cell_of_tet[t] = out.cell_of_tet[lead];
     }
     return out;
+}
+
+int64_t layer_prism_groups(const TetMesh& mesh, const std::vector<int32_t>& point_generator,
+                           const std::vector<int32_t>& point_layer, const std::vector<char>& point_filler)
+{
+    const size_t n = mesh.points.size();
+    if (point_generator.size() != n || point_layer.size() != n || point_filler.size() != n)
+        throw std::invalid_argument("layer_prism_groups: per-point arrays of the wrong size");
+    return static_cast<int64_t>(three_tet_groups(mesh, point_generator, point_layer, point_filler).size());
+}
+
+LayerPrismCells checked_layer_prism_cells(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
+                                          const std::vector<int32_t>& point_generator,
+                                          const std::vector<int32_t>& point_layer,
+                                          const std::vector<char>& point_filler, double max_non_orthogonality_deg,
+                                          const FailingCells& failing_cells)
+{
+    std::vector<char> apart(mesh.tets.size(), 0);
+    for (;;) {
+        LayerPrismCells cells = layer_prism_cells(mesh, adjacency, point_generator, point_layer, point_filler,
+                                                  max_non_orthogonality_deg, &apart);
+        const std::vector<int32_t> failing = failing_cells(cells);
+        std::vector<char> split(static_cast<size_t>(cells.cells), 0);
+        for (int32_t c : failing)
+            if (c >= 0 && c < cells.cells) split[c] = 1;
+        // Each round marks tets not marked before (a round that marks none
+        // ends it), so the rounds end.
+        bool more = false;
+        for (size_t t = 0; t < mesh.tets.size(); ++t)
+            if (split[cells.cell_of_tet[t]] && !apart[t]) apart[t] = 1, more = true;
+        if (!more) return cells;
+    }
 }
 
 } // namespace scalemesh

@@ -5,6 +5,7 @@
 #include "core/tet_mesh.h"
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 namespace scalemesh {
@@ -43,10 +44,29 @@ struct LayerPrismCells {
 // a simpleFoam solution).
 // `adjacency` is tet_face_adjacency(mesh). A prism with a tet marked in
 // `apart` (one entry per tet) is refused too: the caller's own check, such
-// as openfoam_orthogonality on the cells, found a face beyond its bound.
+// as openfoam_cell_checks on the cells, found a face beyond its bound.
 LayerPrismCells layer_prism_cells(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
                                   const std::vector<int32_t>& point_generator, const std::vector<int32_t>& point_layer,
                                   const std::vector<char>& point_filler, double max_non_orthogonality_deg = 68,
                                   const std::vector<char>* apart = nullptr);
+
+// How many layer prisms (as layer_prism_cells finds them) are filled by
+// exactly three tets, whether or not they would be accepted as cells: what
+// the tets keep of the layers as prisms.
+int64_t layer_prism_groups(const TetMesh& mesh, const std::vector<int32_t>& point_generator,
+                           const std::vector<int32_t>& point_layer, const std::vector<char>& point_filler);
+
+// The caller's own check of a set of cells (such as OpenFOAM's, in
+// exporters/polymesh_writer.h): the cells it fails, any order.
+using FailingCells = std::function<std::vector<int32_t>(const LayerPrismCells&)>;
+
+// layer_prism_cells, then the prisms among the cells `failing_cells` names
+// split back into tets, and again, until it names no prism. The cells
+// returned are the last ones checked.
+LayerPrismCells checked_layer_prism_cells(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
+                                          const std::vector<int32_t>& point_generator,
+                                          const std::vector<int32_t>& point_layer,
+                                          const std::vector<char>& point_filler, double max_non_orthogonality_deg,
+                                          const FailingCells& failing_cells);
 
 } // namespace scalemesh

@@ -3,6 +3,7 @@
 #include "core/adjacency.h"
 #include "volume/delaunay_insertion.h"
 #include "volume/improve.h"
+#include "volume/layer_prisms.h"
 #include "volume/offset_points.h"
 #include "volume/quality.h"
 
@@ -321,6 +322,14 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
     }
     attribute_new_points(result, n);
 
+    // The layer prisms the tets fill, step by step (VolumeResult::prism_groups).
+    const auto prism_groups = [&] {
+        attribute_new_points(result, n);
+        return layer_prism_groups(mesh, result.point_generator, result.point_layer, result.point_filler);
+    };
+    result.prism_groups.after_insertion = prism_groups();
+    result.prism_groups.after_flips = result.prism_groups.after_slivers = result.prism_groups.after_cell_passes =
+        result.prism_groups.after_insertion;
     // First-layer anisotropy, as inserted.
     t0 = Clock::now();
     const int layermaking = static_cast<int>(std::floor(params.M / 2));
@@ -354,6 +363,7 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
         const FlipCounts flips = flip_volume_criterion(mesh, params.flip_sweeps);
         result.flips_32 = flips.flips_32, result.flips_23 = flips.flips_23, result.flips_44 = flips.flips_44;
         result.seconds_flips = seconds_since(t0);
+        result.prism_groups.after_flips = prism_groups();
         t0 = Clock::now();
         result.after_flips = quality_report(mesh);
         result.seconds_quality += seconds_since(t0);
@@ -395,6 +405,7 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
         // layer point within the tolerance of the place of a point the
         // interior-point filter took out keeps its layer there for that
         // node, so it stays in a ball inside both tolerances.
+        result.prism_groups.after_slivers = prism_groups();
         const std::vector<LayerBound> held = hold_stand_ins(mesh, n, raw, points, ins.source, layers, params.layer_tolerance);
         // A finite-volume solver also wants no tet flatter than a dihedral
         // angle of 10 degrees: flips, moves and interior-edge splits for the
@@ -440,6 +451,7 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
             result.dihedral_splits += again.splits;
         }
         result.seconds_cell_passes = seconds_since(cell_passes);
+        result.prism_groups.after_cell_passes = prism_groups();
         attribute_new_points(result, n);
         result.seconds_slivers = seconds_since(t0);
         t0 = Clock::now();

@@ -105,6 +105,12 @@ struct VolumeResult {
            seconds_slivers = 0, seconds_quality = 0, seconds_checks = 0, seconds_total = 0;
     double seconds_cell_passes = 0; // of seconds_slivers: the dihedral and non-orthogonality passes
     double max_non_orthogonality_deg = 0; // of the final mesh's interior faces, as checkMesh measures it
+    // Layer prisms filled by exactly three tets (layer_prism_groups) after
+    // each step: what the Delaunay insertion makes of the layers, and what
+    // the flips, the sliver removal and the cell passes keep of it.
+    struct PrismGroups {
+        int64_t after_insertion = 0, after_flips = 0, after_slivers = 0, after_cell_passes = 0;
+    } prism_groups;
 };
 
 // Thrown when the mesh cannot conform to the surface: some surface triangles

@@ -123,6 +123,15 @@ TEST_P(SampleCase, RunsAndMeetsItsExpectedBounds)
                 << "report.json's worst face against checkMesh's";
         if (const auto bound = expected["volume"]["max_non_orthogonality_deg"].value<double>())
             EXPECT_LT(worst, *bound) << "checkMesh's worst face non-orthogonality";
+        // OpenFOAM's checks as the run made them before writing: the same
+        // worst skewness as checkMesh's, and no face it would fail.
+        const nlohmann::json& checks = report["openfoam"]["checks"];
+        std::smatch skew;
+        ASSERT_TRUE(std::regex_search(text, skew, std::regex(R"(Max skewness = ([0-9.eE+-]+))"))) << text;
+        EXPECT_NEAR(checks["max_skewness"].get<double>(), std::stod(skew[1]), 1e-4)
+            << "report.json's worst skewness against checkMesh's";
+        EXPECT_EQ(checks["checkmesh_failures"].get<int64_t>(), 0);
+        EXPECT_GT(checks["min_pyramid_height"].get<double>(), 0.0);
         // checkMesh works in metres, the report in mm.
         EXPECT_NEAR(std::stod(volume[1]) * 1e9, report["volume"]["volume_mm3"].get<double>(),
                     1e-6 * report["volume"]["volume_mm3"].get<double>());
@@ -152,6 +161,20 @@ TEST_P(SampleCase, RunsAndMeetsItsExpectedBounds)
                           layers["eligible_with_all_layers"].get<double>() / layers["eligible_wall_nodes"].get<double>());
             } else if (k == "max_non_orthogonality_deg") {
                 ASSERT_TRUE(report.contains("openfoam")) << "bounded with checkMesh, which needs the OpenFOAM case";
+            } else if (k == "min_intact_prism_share") {
+                // The layer prisms written as one cell each, over wall faces
+                // times floor(M/2) layers.
+                ASSERT_TRUE(report.contains("openfoam")) << "the share is of the OpenFOAM cells";
+                const nlohmann::json& foam = report["openfoam"];
+                const nlohmann::json& patches = foam["patch_faces"];
+                const size_t caps = report.contains("openings") ? report["openings"].size() : 0;
+                int64_t wall_faces = 0;
+                for (size_t p = 0; p < patches.size(); ++p)
+                    if (p == 0 || p > caps) wall_faces += patches[p].get<int64_t>();
+                const double share = foam["layer_prisms"].get<double>() /
+                                     (static_cast<double>(wall_faces) * report["layers"]["layermaking"].get<double>());
+                EXPECT_DOUBLE_EQ(foam["intact_prism_share"].get<double>(), share);
+                EXPECT_GE(share, *value.value<double>());
             } else if (k == "anisotropy_median") {
                 const auto [lo, hi] = bounds(value);
                 const double a = v["first_layer_anisotropy_median"].get<double>();

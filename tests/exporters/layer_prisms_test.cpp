@@ -29,11 +29,13 @@ struct TwoPrisms {
     std::vector<char> filler;
 };
 
-TwoPrisms two_prisms()
+// `points` in place of the square's, if given: the tets are oriented on them.
+TwoPrisms two_prisms(const std::vector<Vec3>& points = {})
 {
     TwoPrisms s;
     const double z = 0.25;
     s.mesh.points = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, z}, {1, 0, z}, {1, 1, z}, {0, 1, z}};
+    if (!points.empty()) s.mesh.points = points;
     s.generator = {0, 1, 2, 3, 0, 1, 2, 3};
     s.layer = {0, 0, 0, 0, 1, 1, 1, 1};
     s.filler.assign(8, 0);
@@ -59,6 +61,15 @@ TwoPrisms two_prisms()
     for (const auto& [key, entry] : faces)
         if (entry.first == 1) s.mesh.boundary_faces.push_back(entry.second);
     return s;
+}
+
+// Every tet a cell of its own.
+LayerPrismCells single_tets(const TetMesh& mesh)
+{
+    LayerPrismCells cells;
+    for (size_t t = 0; t < mesh.tets.size(); ++t) cells.cell_of_tet.push_back(static_cast<int32_t>(t));
+    cells.cells = static_cast<int32_t>(mesh.tets.size());
+    return cells;
 }
 
 TEST(LayerPrisms, ThreeTetsFillingALayerPrismBecomeOneCell)
@@ -139,7 +150,7 @@ TEST(LayerPrisms, PolyMeshWritesEachPrismAsOneCellAndTheirSharedQuadAsOneFace)
     EXPECT_EQ(tets.quad_faces, 0);
 }
 
-// openfoam_orthogonality measures as checkMesh does, also where the quad
+// openfoam_cell_checks measures as checkMesh does, also where the quad
 // between two prisms is warped (its centre and area from OpenFOAM's fan,
 // the prisms' centres from pyramids on their faces, not their tets'
 // centroid): the largest angle agrees with checkMesh's, for the prisms and
@@ -154,26 +165,122 @@ TEST(LayerPrisms, OpenFoamOrthogonalityMatchesCheckMesh)
     const TetFaceAdjacency adjacency = tet_face_adjacency(s.mesh);
     const LayerPrismCells prisms = layer_prism_cells(s.mesh, adjacency, s.generator, s.layer, s.filler);
     ASSERT_EQ(prisms.prisms, 2);
-    LayerPrismCells tets;
-    for (size_t t = 0; t < s.mesh.tets.size(); ++t) tets.cell_of_tet.push_back(static_cast<int32_t>(t));
-    tets.cells = static_cast<int32_t>(s.mesh.tets.size());
+    const LayerPrismCells tets = single_tets(s.mesh);
     for (const LayerPrismCells* cells : std::array<const LayerPrismCells*, 2>{&prisms, &tets}) {
-        const OpenFoamOrthogonality measured =
-            openfoam_orthogonality(s.mesh, adjacency, cells->cell_of_tet, cells->cells, 90.0);
-        EXPECT_GT(measured.max_deg, 1.0); // warped: not a trivially orthogonal face
-        EXPECT_TRUE(measured.grouped_cells_beyond.empty());
+        const OpenFoamCellChecks measured =
+            openfoam_cell_checks(s.mesh, adjacency, cells->cell_of_tet, cells->cells, {.non_orthogonality_deg = 90.0});
+        EXPECT_GT(measured.max_non_orthogonality_deg, 1.0); // warped: not a trivially orthogonal face
+        EXPECT_TRUE(measured.grouped_cells_failing.empty());
+        EXPECT_EQ(measured.flat_pyramids, 0);
         // A bound below the worst face names the prisms on it (never a single tet).
-        const OpenFoamOrthogonality strict = openfoam_orthogonality(s.mesh, adjacency, cells->cell_of_tet, cells->cells,
-                                                                    measured.max_deg - 1e-9);
+        const OpenFoamCellChecks strict =
+            openfoam_cell_checks(s.mesh, adjacency, cells->cell_of_tet, cells->cells,
+                                 {.non_orthogonality_deg = measured.max_non_orthogonality_deg - 1e-9});
         const std::vector<int32_t> named = cells == &prisms ? std::vector<int32_t>{0, 1} : std::vector<int32_t>{};
-        EXPECT_EQ(strict.grouped_cells_beyond, named);
-        if (!openfoam_available()) continue;
+        EXPECT_EQ(strict.grouped_cells_failing, named);
+        EXPECT_EQ(strict.faces_beyond_orthogonality, 1);
+        EXPECT_EQ(strict.checkmesh_failures, 0);
         const TempDir dir;
         write_polymesh(s.mesh, dir.path, {.adjacency = &adjacency, .cell_of_tet = &cells->cell_of_tet, .cells = cells->cells});
         const CheckMeshFigures check = check_mesh(dir.path);
         ASSERT_TRUE(check.ok) << check.log;
-        EXPECT_NEAR(check.max_non_orthogonality, measured.max_deg, 1e-5) << check.log; // checkMesh prints 8 digits
+        EXPECT_NEAR(check.max_non_orthogonality, measured.max_non_orthogonality_deg, 1e-5) << check.log; // 8 digits
+        EXPECT_NEAR(check.max_skewness, measured.max_skewness, 1e-5) << check.log;
     }
+}
+
+// Cells of the tets of `cells`, with the cells in `split` split back into
+// their tets: numbered in the order of their first tet.
+LayerPrismCells split_back(const LayerPrismCells& cells, const std::vector<int32_t>& split)
+{
+    LayerPrismCells out;
+    std::map<int32_t, int32_t> kept;
+    for (int32_t c : cells.cell_of_tet) {
+        if (std::find(split.begin(), split.end(), c) != split.end()) {
+            out.cell_of_tet.push_back(out.cells++);
+            continue;
+        }
+        const auto [it, fresh] = kept.try_emplace(c, out.cells);
+        if (fresh) ++out.cells;
+        out.cell_of_tet.push_back(it->second);
+    }
+    return out;
+}
+
+// The face-pyramid failure checkMesh reported on a vessel tree ("faces are
+// incorrectly oriented" between a merged layer cell and its neighbour): two
+// warped layer prisms, every tet positive and every face between two tets
+// within 60 degrees of the join of their centroids, whose union
+// OpenFOAM centres (from pyramids on its faces, the warped quad between the
+// prisms taken whole) outside one of its faces. checkMesh fails the merged
+// cells; openfoam_cell_checks names the prism, and with it split back into
+// its tets checkMesh passes.
+TEST(LayerPrisms, PrismWhoseOpenFoamCentreLiesOutsideAFaceIsFoundAndSplitBack)
+{
+    const TwoPrisms s = two_prisms({{0.11621999, 0.14607048, -0.07746752}, {0.91712014, 0.15770182, 0.04029919},
+                                    {0.95263921, 0.90624627, -0.17436766}, {0.26316818, 1.14905971, -0.01775142},
+                                    {0.086855, 0.04232155, 0.4349236}, {0.89937456, -0.15999199, 0.1852305},
+                                    {1.03839946, 1.00394423, 0.24128058}, {-0.05165965, 0.88360688, 0.11714804}});
+    for (const Tet& t : s.mesh.tets)
+        ASSERT_GT(tet_volume6(s.mesh.points[t[0]], s.mesh.points[t[1]], s.mesh.points[t[2]], s.mesh.points[t[3]]), 0);
+    const TetFaceAdjacency adjacency = tet_face_adjacency(s.mesh);
+    LayerPrismCells merged;
+    merged.cell_of_tet = {0, 0, 0, 1, 1, 1};
+    merged.cells = 2;
+    const OpenFoamCellChecks found = openfoam_cell_checks(s.mesh, adjacency, merged.cell_of_tet, merged.cells);
+    EXPECT_LT(found.min_pyramid_height, 0);
+    EXPECT_GE(found.flat_pyramids, 1);
+    EXPECT_GE(found.checkmesh_failures, 1);
+    ASSERT_FALSE(found.grouped_cells_failing.empty());
+    EXPECT_LT(found.grouped_cells_failing.size(), 2u); // one prism is enough
+    // The face pyramids find it: non-orthogonality alone (all the check was
+    // before) passes these cells.
+    const OpenFoamCellChecks orthogonality_only =
+        openfoam_cell_checks(s.mesh, adjacency, merged.cell_of_tet, merged.cells,
+                             {.skewness = 1e300, .pyramid_height = -1e300});
+    EXPECT_TRUE(orthogonality_only.grouped_cells_failing.empty());
+    {
+        const TempDir dir;
+        write_polymesh(s.mesh, dir.path, {.adjacency = &adjacency, .cell_of_tet = &merged.cell_of_tet, .cells = 2});
+        const CheckMeshFigures check = check_mesh(dir.path);
+        EXPECT_FALSE(check.ok) << check.log;
+        EXPECT_NE(check.log.find("incorrectly oriented"), std::string::npos) << check.log;
+    }
+    // Split back as run_case does (checked_layer_prism_cells), round by
+    // round: the other prism's faces change with the first one's split.
+    LayerPrismCells split = merged;
+    OpenFoamCellChecks after = found;
+    for (int round = 0; round < 3 && !after.grouped_cells_failing.empty(); ++round) {
+        split = split_back(split, after.grouped_cells_failing);
+        after = openfoam_cell_checks(s.mesh, adjacency, split.cell_of_tet, split.cells);
+    }
+    EXPECT_TRUE(after.grouped_cells_failing.empty());
+    EXPECT_EQ(after.checkmesh_failures, 0);
+    EXPECT_GT(after.min_pyramid_height, 0);
+    const TempDir dir;
+    write_polymesh(s.mesh, dir.path, {.adjacency = &adjacency, .cell_of_tet = &split.cell_of_tet, .cells = split.cells});
+    const CheckMeshFigures check = check_mesh(dir.path);
+    EXPECT_TRUE(check.ok) << check.log;
+    EXPECT_NEAR(check.max_skewness, after.max_skewness, 1e-5) << check.log;
+}
+
+// checked_layer_prism_cells splits exactly the prisms named, and ends when a
+// round names none (or names only single tets).
+TEST(LayerPrisms, CheckedCellsSplitOnlyThePrismsNamed)
+{
+    const TwoPrisms s = two_prisms();
+    const TetFaceAdjacency adjacency = tet_face_adjacency(s.mesh);
+    int rounds = 0;
+    const LayerPrismCells one = checked_layer_prism_cells(
+        s.mesh, adjacency, s.generator, s.layer, s.filler, 68.0, [&](const LayerPrismCells& cells) {
+            ++rounds;
+            // The first round names the second prism (cell 1), the next its tets.
+            return rounds == 1 ? std::vector<int32_t>{1} : std::vector<int32_t>{cells.cells - 1};
+        });
+    EXPECT_EQ(rounds, 2);
+    EXPECT_EQ(one.prisms, 1);
+    EXPECT_EQ(one.cells, 4);
+    EXPECT_EQ(one.cell_of_tet, (std::vector<int32_t>{0, 0, 0, 1, 2, 3}));
 }
 
 } // namespace

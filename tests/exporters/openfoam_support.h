@@ -41,6 +41,7 @@ struct CheckMeshFigures {
     long cells = -1;
     double volume = -1; // "Total volume"
     double max_non_orthogonality = -1; // "Mesh non-orthogonality Max:"
+    double max_skewness = -1;          // "Max skewness ="
 };
 
 // checkMesh on a case whose polyMesh is written; system/ comes from our case
@@ -56,6 +57,7 @@ inline CheckMeshFigures check_mesh(const std::filesystem::path& case_dir)
     if (std::regex_search(f.log, m, std::regex(R"(Total volume = ([0-9.eE+-]+))"))) f.volume = std::stod(m[1]);
     if (std::regex_search(f.log, m, std::regex(R"(non-orthogonality Max: ([0-9.eE+-]+))")))
         f.max_non_orthogonality = std::stod(m[1]);
+    if (std::regex_search(f.log, m, std::regex(R"(Max skewness = ([0-9.eE+-]+))"))) f.max_skewness = std::stod(m[1]);
     return f;
 }
 

@@ -1,5 +1,5 @@
-// floor_warnings: one sentence per floor the volume mesh misses, with its
-// figure, and none when it misses none.
+// floor_warnings and openfoam_check_warnings: one sentence per floor the
+// mesh misses, with its figure, and none when it misses none.
 
 #include "pipeline/run_case.h"
 
@@ -27,6 +27,25 @@ TEST(FloorWarnings, AFaceBeyondCheckMeshsSevereNonOrthogonalityIsWarnedOf)
     ASSERT_EQ(warnings.size(), 1u);
     EXPECT_NE(warnings[0].find("70.14 degrees off orthogonal"), std::string::npos) << warnings[0];
     EXPECT_NE(warnings[0].find("checkMesh"), std::string::npos) << warnings[0];
+}
+
+// Faces of the OpenFOAM cells that checkMesh would fail (left on single
+// tets, nothing to split back) are warned of; faces beyond the split-back
+// margins alone are not.
+TEST(FloorWarnings, FacesCheckMeshWouldFailAreWarnedOf)
+{
+    OpenFoamCellChecks checks;
+    checks.max_skewness = 3.9;
+    checks.skew_faces = 2; // beyond the 3.8 margin, within checkMesh's 4
+    checks.flat_pyramids = 1;
+    EXPECT_TRUE(openfoam_check_warnings(checks).empty());
+
+    checks.max_skewness = 4.37;
+    checks.checkmesh_failures = 3;
+    const std::vector<std::string> warnings = openfoam_check_warnings(checks);
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_NE(warnings[0].find("3 faces of the OpenFOAM cells would fail checkMesh"), std::string::npos) << warnings[0];
+    EXPECT_NE(warnings[0].find("worst skewness 4.37"), std::string::npos) << warnings[0];
 }
 
 } // namespace
