@@ -374,6 +374,7 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
                               {"flips", v.seconds_flips},
                               {"slivers", v.seconds_slivers},
                               {"dihedral_and_orthogonality_passes", v.seconds_cell_passes},
+                              {"layer_prism_groups", v.seconds_prism_groups},
                               {"quality", v.seconds_quality},
                               {"checks", v.seconds_checks},
                               {"total", v.seconds_total}}}};

@@ -324,8 +324,11 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
 
     // The layer prisms the tets fill, step by step (VolumeResult::prism_groups).
     const auto prism_groups = [&] {
+        const auto begin = Clock::now();
         attribute_new_points(result, n);
-        return layer_prism_groups(mesh, result.point_generator, result.point_layer, result.point_filler);
+        const int64_t groups = layer_prism_groups(mesh, result.point_generator, result.point_layer, result.point_filler);
+        result.seconds_prism_groups += seconds_since(begin);
+        return groups;
     };
     result.prism_groups.after_insertion = prism_groups();
     result.prism_groups.after_flips = result.prism_groups.after_slivers = result.prism_groups.after_cell_passes =

@@ -104,6 +104,7 @@ struct VolumeResult {
     double seconds_points = 0, seconds_insertion = 0, seconds_classify = 0, seconds_flips = 0,
            seconds_slivers = 0, seconds_quality = 0, seconds_checks = 0, seconds_total = 0;
     double seconds_cell_passes = 0; // of seconds_slivers: the dihedral and non-orthogonality passes
+    double seconds_prism_groups = 0; // counting prism_groups, within the steps' own times
     double max_non_orthogonality_deg = 0; // of the final mesh's interior faces, as checkMesh measures it
     // Layer prisms filled by exactly three tets (layer_prism_groups) after
     // each step: what the Delaunay insertion makes of the layers, and what

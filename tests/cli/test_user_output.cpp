@@ -105,7 +105,8 @@ TEST(CliOutput, RunPrintsALinePerStageAndASummaryWhenNotATerminal)
     ASSERT_TRUE(std::regex_search(r.err, m, std::regex("\nscalemesh: done in [0-9.]+ s\n"))) << r.err;
     ASSERT_TRUE(std::regex_search(
         r.err, m,
-        std::regex("\n  cells +([0-9]+) tetrahedra, ([0-9]+) points; OpenFOAM: ([0-9]+) cells, ([0-9]+) of them layer prisms\n")))
+        std::regex("\n  cells +([0-9]+) tetrahedra, ([0-9]+) points; OpenFOAM: ([0-9]+) cells, ([0-9]+) of them layer "
+                   "prisms \\(([0-9.]+)% of wall faces x layers intact\\)\n")))
         << r.err;
     EXPECT_EQ(std::stol(m[1]), report["volume"]["tets"].get<long>());
     EXPECT_EQ(std::stol(m[2]), report["volume"]["points"].get<long>());
@@ -114,6 +115,7 @@ TEST(CliOutput, RunPrintsALinePerStageAndASummaryWhenNotATerminal)
     // Each prism is three tets in one cell.
     EXPECT_EQ(std::stol(m[3]), std::stol(m[1]) - 2 * std::stol(m[4]));
     EXPECT_GT(std::stol(m[4]), 0);
+    EXPECT_NEAR(std::stod(m[5]), 100 * report["openfoam"]["intact_prism_share"].get<double>(), 0.05);
     ASSERT_TRUE(std::regex_search(
         r.err, m, std::regex("\n  layers +([0-9]+) of ([0-9]+) wall nodes with D >= L_min keep all 3 layers [^;\n]*(?:; ([0-9]+) opening nodes)?")))
         << r.err;
