@@ -103,6 +103,14 @@ nlohmann::json layers_json(const LayerAccount& a, const SurfaceMesh& surface, co
 
 } // namespace
 
+namespace {
+
+// Patch p of the polyMesh is a wall: patch 0, and any after the caps' own
+// (one per cap, in order).
+bool is_wall_patch(size_t p, size_t caps) { return p == 0 || p > caps; }
+
+} // namespace
+
 double intact_prism_share(const CaseResult& result)
 {
     if (!result.polymesh || !result.run.volume) return 0;
@@ -110,7 +118,7 @@ double intact_prism_share(const CaseResult& result)
     int64_t wall_faces = 0;
     const std::vector<int64_t>& patches = result.polymesh->patch_faces;
     for (size_t p = 0; p < patches.size(); ++p)
-        if (p == 0 || p > result.run.caps.size()) wall_faces += patches[p];
+        if (is_wall_patch(p, result.run.caps.size())) wall_faces += patches[p];
     const int64_t wanted = wall_faces * layermaking;
     return wanted > 0 ? static_cast<double>(result.layer_prisms) / static_cast<double>(wanted) : 0;
 }
@@ -390,7 +398,7 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
                               {"layer_prisms", result.layer_prisms},
                               {"layer_prisms_refused", result.layer_prisms_refused},
                               {"intact_prism_share", intact_prism_share(result)},
-                              {"max_non_orthogonality_deg", result.max_non_orthogonality_deg},
+                              {"max_non_orthogonality_deg", checks.max_non_orthogonality_deg},
                               {"checks",
                                {{"max_skewness", checks.max_skewness},
                                 {"min_pyramid_height", checks.min_pyramid_height},
@@ -505,7 +513,6 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
             }
             result.layer_prisms = cells.prisms;
             result.layer_prisms_refused = cells.refused;
-            result.max_non_orthogonality_deg = checks.max_non_orthogonality_deg;
             result.openfoam_checks = checks;
             for (const std::string& w : openfoam_check_warnings(checks)) result.warnings.push_back(w);
             const PolyMeshCounts counts =
@@ -518,7 +525,7 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
             std::vector<PatchRole> roles;
             for (size_t p = 0; p < counts.patch_faces.size(); ++p) {
                 names.push_back(p < mesh.patch_names.size() ? mesh.patch_names[p] : (p == 0 ? "wall" : "patch_" + std::to_string(p)));
-                roles.push_back(p == 0 || p > result.run.caps.size() ? PatchRole::Wall
+                roles.push_back(is_wall_patch(p, result.run.caps.size()) ? PatchRole::Wall
                                 : result.run.caps[p - 1].type == OpeningType::Inlet ? PatchRole::Inlet
                                                                                     : PatchRole::Outlet);
             }

@@ -19,8 +19,8 @@ struct CaseResult {
     int64_t layer_prisms = 0;                   // its cells of three tets filling a layer prism
     int64_t layer_prisms_refused = 0;           // prisms filled by three tets left as tets (not star-shaped, or a
                                                 // face beyond the bound by the tets' or by OpenFOAM's measure)
-    double max_non_orthogonality_deg = 0;       // of the written cells, as OpenFOAM measures it
-    OpenFoamCellChecks openfoam_checks;         // OpenFOAM's own checks on the written cells
+    OpenFoamCellChecks openfoam_checks;         // OpenFOAM's own checks on the written cells (its worst face
+                                                // non-orthogonality among them)
     bool flow_case = false;                     // whether 0/U and 0/p were written
     std::vector<std::string> warnings;          // the run's floors it missed (floor_warnings)
 };
