@@ -2,6 +2,7 @@
 
 #include "core/errors.h"
 #include "importers/image_importer.h"
+#include "importers/self_intersections.h"
 #include "importers/surface_importer.h"
 #include "importers/vdb_importer.h"
 #include "isosurface/marching_cubes.h"
@@ -208,6 +209,26 @@ std::string units_warning(const SurfaceMesh& surface, const CaseConfig& config)
     return line;
 }
 
+// A surface that crosses itself is refused before any stage runs on it:
+// the feature size falls to nothing at the crossing and remeshing would
+// refine there without end.
+void require_no_self_intersections(const SurfaceMesh& surface, const std::string& what)
+{
+    const SelfIntersections crossing = self_intersections(surface, 1);
+    if (crossing.pairs == 0) return;
+    const auto centre = [&](int32_t t) {
+        const Triangle& f = surface.triangles[t];
+        return (surface.points[f[0]] + surface.points[f[1]] + surface.points[f[2]]) / 3;
+    };
+    const Vec3 where = (centre(crossing.first[0][0]) + centre(crossing.first[0][1])) / 2;
+    std::ostringstream msg;
+    msg << what << " intersects itself: " << crossing.pairs << (crossing.pairs == 1 ? " pair" : " pairs")
+        << " of triangles cross, the first near (" << where.x << ", " << where.y << ", " << where.z << ") mm";
+    throw InputError(msg.str(), "a surface that crosses itself encloses no one region to mesh; remove the overlapping "
+                                "or duplicated parts, or repair the crossings (a self-intersection repair such as "
+                                "MeshLab's or meshfix), and re-run");
+}
+
 // Reads a surface file into `surface`, closed and oriented outwards. Labelled
 // flat caps are taken out and every open end is closed by a fan, to be cut
 // flat by the openings stage (openings/open_ends.h). Returns the import
@@ -249,6 +270,7 @@ std::string import_surface(LabelledSurface read, const std::string& what, const 
         require_closed_manifold(surface, what);
         if (orient_outward(surface)) note << "; wound inwards: reversed";
     }
+    require_no_self_intersections(surface, what);
     run.isosurface = surface_facts(surface);
     if (const std::string warning = units_warning(surface, config); !warning.empty()) run.warnings.push_back(warning);
     return note.str();

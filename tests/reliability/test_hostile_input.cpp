@@ -198,3 +198,42 @@ TEST(HostileInput, SharedAortaSurfaceWithSliverTriangles)
 
 } // namespace
 } // namespace scalemesh
+
+namespace scalemesh {
+namespace {
+
+// A closed cube of side `side` from corner `lo`, counter-clockwise from outside.
+std::vector<std::array<Vec3, 3>> cube(const Vec3& lo, double side)
+{
+    const double L = side;
+    const Vec3 e = lo, f = lo + Vec3{L, 0, 0}, g = lo + Vec3{L, L, 0}, h = lo + Vec3{0, L, 0};
+    const Vec3 a = lo + Vec3{0, 0, L}, b = lo + Vec3{L, 0, L}, c = lo + Vec3{L, L, L}, d = lo + Vec3{0, L, L};
+    return {{a, b, c}, {a, c, d}, {e, g, f}, {e, h, g}, {e, f, b}, {e, b, a},
+            {f, g, c}, {f, c, b}, {g, h, d}, {g, d, c}, {h, e, a}, {h, a, d}};
+}
+
+TEST(HostileInput, OverlappingCubesAreRefusedAsSelfIntersecting)
+{
+    RecordedOutcome outcome("two closed 10 mm cubes in one STL, the second shifted by (3, 3, 3) mm into the first; and, "
+                            "as a control, shifted by (15, 0, 0) mm clear of it");
+    const TempDir overlapping, apart;
+    std::vector<std::array<Vec3, 3>> two = cube({0, 0, 0}, 10);
+    for (const auto& t : cube({3, 3, 3}, 10)) two.push_back(t);
+    write_stl(overlapping.path / "cubes.stl", two);
+    write_case(overlapping.path, "[input]\nfile = \"cubes.stl\"\n");
+    const CommandResult r = run_case_limited(overlapping.path, kTimeLimit);
+    outcome.add(describe_unmeshed(r), "overlapping");
+    expect_refused(r, overlapping.path, {"cubes.stl"});
+    EXPECT_NE(r.err.find("cubes.stl intersects itself"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("pairs of triangles cross, the first near ("), std::string::npos) << r.err;
+
+    two = cube({0, 0, 0}, 10);
+    for (const auto& t : cube({15, 0, 0}, 10)) two.push_back(t);
+    write_stl(apart.path / "cubes.stl", two);
+    write_case(apart.path, "[input]\nfile = \"cubes.stl\"\n");
+    expect_meshed(run_case_limited(apart.path, kTimeLimit), apart, outcome, "apart");
+    EXPECT_EQ(report(apart)["remeshed_surface"]["components"], 2);
+}
+
+} // namespace
+} // namespace scalemesh
