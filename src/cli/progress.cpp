@@ -206,6 +206,15 @@ void ProgressDisplay::summary(const CaseConfig& config, const CaseResult& result
     for (const auto& p : result.written)
         files += (files.empty() ? "" : " ") + std::filesystem::relative(p, config.directory).string();
     std::fprintf(o, "  wrote     %s (in %s)\n", files.c_str(), config.directory.string().c_str());
+    if (!result.removed.empty()) {
+        std::string stale;
+        for (const auto& p : result.removed)
+            stale += (stale.empty() ? "" : " ") + std::filesystem::relative(p, config.directory).string();
+        std::fprintf(o, "  removed   %s (an earlier run's outputs that this run did not write)\n", stale.c_str());
+    }
+    if (result.orphaned_partials > 0)
+        std::fprintf(o, "  removed   %lld unfinished outputs of runs that were killed\n",
+                     static_cast<long long>(result.orphaned_partials));
     std::fflush(o);
 }
 

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -372,6 +373,26 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
     };
     file_list("surface", {".msh", ".vtk", ".stl"}, config.surface_outputs);
     file_list("volume", {".msh", ".vtk"}, config.volume_outputs);
+    // Each output is written under its own name: two outputs of one name
+    // would share one temporary file, and one named as a file the run reads
+    // or writes besides would overwrite it.
+    {
+        std::map<std::string, std::string> taken = {{"report.json", "the name of the run's report"},
+                                                    {"quality.png", "the name of the quality histograms"},
+                                                    {"Allrun", "the name of the OpenFOAM case's script"},
+                                                    {"scalemesh.toml", "the name of the case file"},
+                                                    {"log.scalemesh", "the name of the run's log"}};
+        if (!config.file.empty() && !config.file.has_parent_path())
+            taken.emplace(config.file.string(), "the name of the input file");
+        for (const auto& [key, names] : {std::pair<std::string, const std::vector<std::string>*>{"surface", &config.surface_outputs},
+                                         {"volume", &config.volume_outputs}})
+            for (const std::string& name : *names) {
+                const auto [at, fresh] = taken.emplace(name, "named in [output] " + key);
+                if (!fresh)
+                    throw InputError(output.where(key) + " names \"" + name + "\", already " + at->second,
+                                     "give each output its own file name");
+            }
+    }
     config.openfoam = output.get<bool>("openfoam").value_or(true);
     const std::string foam_format = output.get<std::string>("openfoam_format").value_or("ascii");
     if (foam_format != "ascii" && foam_format != "binary")

@@ -15,10 +15,15 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <regex>
+#include <set>
 #include <sstream>
+
+#include <signal.h>
 
 namespace scalemesh {
 
@@ -415,6 +420,10 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
     nlohmann::json files = nlohmann::json::array();
     for (const auto& p : result.written) files.push_back(std::filesystem::relative(p, config.directory).string());
     report["files"] = files;
+    nlohmann::json removed = nlohmann::json::array();
+    for (const auto& p : result.removed) removed.push_back(std::filesystem::relative(p, config.directory).string());
+    report["removed"] = removed;
+    report["removed_partial_files"] = result.orphaned_partials;
     // The estimates of pipeline/memory_estimate.h beside the measured peak
     // (so far: the outputs are written, report.json is last).
     report["memory"] = {{"bound_bytes", run.memory_bound},
@@ -425,10 +434,64 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
     return report.dump(2) + "\n";
 }
 
+int64_t remove_orphaned_partials(const std::filesystem::path& dir)
+{
+    static const std::regex partial(R"(.+\.partial-([0-9]+)(\..*)?)");
+    int64_t removed = 0;
+    std::error_code ec;
+    auto it = std::filesystem::recursive_directory_iterator(dir, ec);
+    for (; !ec && it != std::filesystem::recursive_directory_iterator(); it.increment(ec)) {
+        if (it.depth() >= 2) it.disable_recursion_pending(); // outputs lie at most in constant/polyMesh/
+        std::smatch m;
+        const std::string name = it->path().filename().string();
+        if (!it->is_regular_file(ec) || !std::regex_match(name, m, partial)) continue;
+        const long pid = std::strtol(m[1].str().c_str(), nullptr, 10);
+        if (pid <= 0 || ::kill(static_cast<pid_t>(pid), 0) == 0 || errno == EPERM) continue; // its run is alive
+        std::error_code gone;
+        if (std::filesystem::remove(it->path(), gone)) ++removed;
+    }
+    return removed;
+}
+
+std::vector<std::filesystem::path> stale_outputs(const CaseConfig& config,
+                                                 const std::vector<std::filesystem::path>& written)
+{
+    const std::filesystem::path& dir = config.directory;
+    std::ifstream in(dir / "report.json");
+    if (!in) return {};
+    const nlohmann::json old = nlohmann::json::parse(in, nullptr, false);
+    if (old.is_discarded() || !old.is_object() || !old.contains("files") || !old["files"].is_array()) return {};
+    std::set<std::string> now;
+    for (const std::filesystem::path& p : written) now.insert(std::filesystem::relative(p, dir).generic_string());
+    std::error_code ec;
+    const std::filesystem::path input =
+        config.file.empty() ? std::filesystem::path() : std::filesystem::weakly_canonical(dir / config.file, ec);
+    std::vector<std::filesystem::path> stale;
+    for (const nlohmann::json& item : old["files"]) {
+        if (!item.is_string()) continue;
+        const std::filesystem::path name = std::filesystem::path(item.get<std::string>()).lexically_normal();
+        // Only what a run writes: a path inside the case directory, never
+        // the case file, the report or the input (or a directory holding it).
+        if (name.empty() || name.is_absolute() || *name.begin() == ".." || name == "scalemesh.toml" ||
+            name == "report.json" || now.count(name.generic_string()))
+            continue;
+        const std::filesystem::path path = dir / name;
+        if (!std::filesystem::exists(std::filesystem::symlink_status(path, ec))) continue;
+        const std::filesystem::path full = std::filesystem::weakly_canonical(path, ec);
+        if (!input.empty()) {
+            const auto [end, at] = std::mismatch(full.begin(), full.end(), input.begin(), input.end());
+            if (end == full.end()) continue; // the input, or a directory above it
+        }
+        stale.push_back(path);
+    }
+    return stale;
+}
+
 CaseResult run_case(const std::filesystem::path& dir, const StageListener& listener, std::optional<int> threads,
                     int64_t max_memory)
 {
     CaseConfig config = read_case(dir);
+    const int64_t orphans = remove_orphaned_partials(dir);
     if (threads) {
         if (*threads < 0 || *threads > 1024)
             throw InputError("--threads " + std::to_string(*threads) + " is out of range",
@@ -447,6 +510,7 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
     // The polyMesh and case writers hand their files over uncommitted; all
     // are moved into place together, with interruptions held back.
     result.warnings = floor_warnings(config, result.run);
+    result.orphaned_partials = orphans;
     StagedOutputs pending;
     const auto stage = [&](const std::string& name) {
         pending.push_back(std::make_unique<AtomicOutput>(dir / name));
@@ -534,18 +598,33 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
                                                     .inlet_speed = config.inlet_speed,
                                                     .staged = &pending});
             result.written.push_back(dir / "constant" / "polyMesh");
+            result.written.push_back(dir / "constant" / "transportProperties");
+            result.written.push_back(dir / "constant" / "turbulenceProperties");
             result.written.push_back(dir / "system");
             if (result.flow_case) result.written.push_back(dir / "0");
             result.written.push_back(dir / "Allrun");
         }
     }
 
+    result.removed = stale_outputs(config, result.written);
     write_text_file(stage("report.json"), report_json(config, result));
     for (const auto& out : pending)
         if (std::filesystem::is_directory(out->path()))
             throw IoError(out->path().string(), "a directory has this name, so the output cannot be written; "
                                                 "rename or remove it");
     commit_all(pending);
+    // The run owns what it writes: an earlier run's outputs that this one
+    // did not write go once this one's are in place (a failed run leaves
+    // the earlier outputs and their report.json as they were).
+    for (const std::filesystem::path& p : result.removed) {
+        std::error_code ec;
+        std::filesystem::remove_all(p, ec);
+        if (ec) result.warnings.push_back("could not remove " + p.string() + ", an earlier run's output: " + ec.message());
+        // And the directories it leaves empty (constant/ without polyMesh/).
+        for (std::filesystem::path up = p.parent_path(); up != dir && std::filesystem::is_empty(up, ec) && !ec;
+             up = up.parent_path())
+            std::filesystem::remove(up, ec);
+    }
     return result;
 }
 

@@ -15,6 +15,9 @@ namespace scalemesh {
 struct CaseResult {
     PipelineRun run;
     std::vector<std::filesystem::path> written; // in the order written, report.json last
+    std::vector<std::filesystem::path> removed; // an earlier run's outputs (its report.json's files) this run did
+                                                // not write, removed once this run's are in place
+    int64_t orphaned_partials = 0;              // unfinished outputs (*.partial-PID*) of runs no longer alive, removed
     std::optional<PolyMeshCounts> polymesh;     // when the OpenFOAM case was written
     int64_t layer_prisms = 0;                   // its cells of three tets filling a layer prism
     int64_t layer_prisms_refused = 0;           // prisms filled by three tets left as tets (not star-shaped, or a
@@ -31,6 +34,19 @@ struct CaseResult {
 // volume mesh misses, and a face beyond the 70 degrees of non-orthogonality
 // that checkMesh counts as severe, with the figure; empty when there are
 // none.
+// The outputs an earlier run listed in the case directory's report.json
+// ("files") that `written` does not hold and that still exist: paths inside
+// the case directory only, never scalemesh.toml, report.json, the input
+// file or a directory holding it.
+std::vector<std::filesystem::path> stale_outputs(const CaseConfig& config,
+                                                 const std::vector<std::filesystem::path>& written);
+
+// Removes the unfinished outputs (NAME.partial-PID[.EXT], atomic_file.h)
+// in `dir` and its subdirectories to two levels whose process PID is no
+// longer alive (a run killed by SIGKILL cannot remove its own); returns how
+// many.
+int64_t remove_orphaned_partials(const std::filesystem::path& dir);
+
 std::vector<std::string> floor_warnings(const CaseConfig& config, const PipelineRun& run);
 
 // A sentence when faces of the OpenFOAM cells would still fail checkMesh

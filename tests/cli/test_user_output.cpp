@@ -20,6 +20,9 @@
 #include <regex>
 #include <sstream>
 
+#include <sys/wait.h>
+#include <unistd.h>
+
 namespace scalemesh {
 namespace {
 
@@ -280,6 +283,75 @@ TEST(CliOutput, RefusesOpenSurfacesAndBadUnits)
     EXPECT_EQ(r.exit_code, 2) << r.err;
     EXPECT_NE(r.err.find("units applies to surface files"), std::string::npos) << r.err;
     EXPECT_FALSE(std::filesystem::exists(dir / "report.json"));
+}
+
+// A run owns what it writes: an earlier run's outputs that a successful run
+// did not write are removed, and said so; a failed run leaves everything; the
+// unfinished outputs of a killed run go, those of a live run stay.
+TEST(CliOutput, ARunRemovesWhatAnEarlierRunWroteAndItDidNot)
+{
+    const TempDir tmp;
+    const auto dir = small_case(tmp);
+    ASSERT_EQ(run_scalemesh({"run", dir.string(), "-q"}).exit_code, 0);
+    for (const char* name : {"constant/polyMesh/faces", "constant/transportProperties", "system/controlDict", "Allrun"})
+        ASSERT_TRUE(std::filesystem::exists(dir / name)) << name;
+    write_text(dir / "notes.txt", "the user's own file\n");
+    // A process that has ended: its pid names no live process.
+    const pid_t child = fork();
+    if (child == 0) _exit(0);
+    ASSERT_GT(child, 0);
+    waitpid(child, nullptr, 0);
+    const auto dead = dir / ("mesh.partial-" + std::to_string(child) + ".msh");
+    const auto alive = dir / ("surface.partial-" + std::to_string(getpid()) + ".msh");
+    write_text(dead, "unfinished\n");
+    write_text(alive, "unfinished\n");
+
+    // A failed run changes nothing.
+    write_text(dir / "scalemesh.toml", "[input]\nphantom = \"sphere\"\nvoxel_size = 1.0\n[output]\nopenfoam = 3\n");
+    ASSERT_EQ(run_scalemesh({"run", dir.string(), "-q"}).exit_code, 2);
+    EXPECT_TRUE(std::filesystem::exists(dir / "constant/polyMesh/faces"));
+    EXPECT_TRUE(std::filesystem::exists(dir / "Allrun"));
+
+    write_text(dir / "scalemesh.toml", "[input]\nphantom = \"sphere\"\nvoxel_size = 1.0\n[output]\nopenfoam = false\n");
+    const CommandResult r = run_scalemesh({"run", dir.string()});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const std::vector<std::string> stale = {"constant/polyMesh", "constant/transportProperties",
+                                            "constant/turbulenceProperties", "system", "Allrun"};
+    for (const std::string& name : stale) EXPECT_FALSE(std::filesystem::exists(dir / name)) << name;
+    EXPECT_FALSE(std::filesystem::exists(dir / "constant")) << "left empty, so removed too";
+    EXPECT_TRUE(std::filesystem::exists(alive));
+    EXPECT_FALSE(std::filesystem::exists(dead));
+    EXPECT_TRUE(std::filesystem::exists(dir / "notes.txt"));
+    EXPECT_TRUE(std::filesystem::exists(dir / "mesh.msh"));
+    const nlohmann::json report = report_of(dir);
+    EXPECT_EQ(report["removed"].get<std::vector<std::string>>(), stale);
+    EXPECT_EQ(report["removed_partial_files"], 1);
+    EXPECT_NE(r.err.find("\n  removed   constant/polyMesh constant/transportProperties constant/turbulenceProperties "
+                         "system Allrun (an earlier run's outputs that this run did not write)\n"),
+              std::string::npos)
+        << r.err;
+    EXPECT_NE(r.err.find("\n  removed   1 unfinished outputs of runs that were killed\n"), std::string::npos) << r.err;
+
+    // The next run has nothing more to remove.
+    ASSERT_EQ(run_scalemesh({"run", dir.string(), "-q"}).exit_code, 0);
+    EXPECT_EQ(report_of(dir)["removed"].size(), 0u);
+}
+
+TEST(CliOutput, RefusesTwoOutputsOfOneName)
+{
+    const TempDir tmp;
+    auto dir = small_case(tmp, "[output]\nsurface = [\"mesh.msh\"]\n");
+    CommandResult r = run_scalemesh({"run", dir.string()});
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_NE(r.err.find("names \"mesh.msh\", already named in [output] "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("give each output its own file name"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / "report.json"));
+
+    write_text(dir / "scalemesh.toml",
+               "[input]\nphantom = \"sphere\"\nvoxel_size = 1.0\n[output]\nsurface = [\"a.vtk\", \"a.vtk\"]\n");
+    r = run_scalemesh({"run", dir.string()});
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_NE(r.err.find("names \"a.vtk\", already named in [output] surface"), std::string::npos) << r.err;
 }
 
 } // namespace
