@@ -78,6 +78,7 @@ int main(int argc, char** argv)
     restart_with_huge_pages(argv);
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
+    std::signal(SIGHUP, on_signal); // a closed terminal: the run ends as on SIGINT, its outputs removed
 
     CLI::App app{"scalemesh " SCALEMESH_VERSION
                  ": scale-invariant layered tetrahedral meshes from segmented images, for CFD"};

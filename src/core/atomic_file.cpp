@@ -32,6 +32,24 @@ int register_pending(const std::string& name)
     return -1;
 }
 
+// Removes the directory holding `path`, and the one above, where they are
+// empty: what a writer created for outputs that never came (constant/ and
+// constant/polyMesh/ of an interrupted run). Async-signal-safe (rmdir on a
+// copy of the name).
+void remove_empty_parents(const char* path) noexcept
+{
+    std::array<char, kMaxName> dir;
+    const size_t length = ::strnlen(path, kMaxName - 1);
+    std::memcpy(dir.data(), path, length);
+    dir[length] = 0;
+    for (int level = 0; level < 2; ++level) {
+        char* slash = std::strrchr(dir.data(), '/');
+        if (!slash || slash == dir.data()) return;
+        *slash = 0;
+        if (::rmdir(dir.data()) != 0) return; // not empty (or not ours to remove)
+    }
+}
+
 void unregister_pending(int slot)
 {
     if (slot >= 0) g_in_use[slot].store(false);
@@ -62,6 +80,7 @@ AtomicOutput::~AtomicOutput()
     if (!committed_) {
         std::error_code ignored;
         std::filesystem::remove(temporary_, ignored);
+        remove_empty_parents(std::filesystem::absolute(temporary_, ignored).c_str());
     }
     unregister_pending(slot_);
 }
@@ -125,7 +144,10 @@ void signal_handled() noexcept { g_commit_state.fetch_add(1); }
 void remove_pending_outputs() noexcept
 {
     for (int i = 0; i < kMaxPending; ++i)
-        if (g_in_use[i].load()) ::unlink(g_names[i].data());
+        if (g_in_use[i].load()) {
+            ::unlink(g_names[i].data());
+            remove_empty_parents(g_names[i].data());
+        }
 }
 
 } // namespace scalemesh

@@ -191,5 +191,44 @@ TEST(Interruption, LeavesNoPartialFileAndTheEarlierOutputsWholeOrAllNew)
     EXPECT_GT(old_kept, 0);
 }
 
+// A case directory holding only its case file: a run interrupted by SIGINT,
+// SIGTERM or SIGHUP at any moment leaves either nothing of its own (no
+// temporary file, no directory it made, such as an empty constant/polyMesh/)
+// or all of its outputs.
+TEST(Interruption, AFreshCaseGetsNothingOrEverything)
+{
+    ASSERT_NE(std::getenv("SCALEMESH_BINARY"), nullptr) << "run through ctest";
+    const TempDir tmp;
+    const std::filesystem::path dir = tmp.path / "tube";
+    write_case(dir, "");
+    const std::string toml = slurp(dir / "scalemesh.toml");
+    const auto start = std::chrono::steady_clock::now();
+    ASSERT_EQ(run_scalemesh({"run", dir.string(), "-q", "--threads", "1"}).exit_code, 0);
+    const auto duration = std::chrono::steady_clock::now() - start;
+    const auto complete = outputs(dir);
+    const int signals[] = {SIGINT, SIGTERM, SIGHUP};
+    int nothing = 0, everything = 0;
+    for (int k = 0; k <= 15; ++k) {
+        std::filesystem::remove_all(dir);
+        std::filesystem::create_directories(dir);
+        std::ofstream(dir / "scalemesh.toml") << toml;
+        const auto delay = std::chrono::duration_cast<std::chrono::microseconds>(duration * (k / 12.0));
+        const int status = interrupted_run({"run", dir.string(), "-q", "--threads", "1"}, delay, signals[k % 3]);
+        std::vector<std::string> left;
+        for (const auto& entry : std::filesystem::recursive_directory_iterator(dir))
+            if (entry.path().filename() != "scalemesh.toml") left.push_back(std::filesystem::relative(entry.path(), dir));
+        if (left.empty()) {
+            ++nothing;
+            continue;
+        }
+        EXPECT_EQ(differing(outputs(dir), complete), std::vector<std::string>{})
+            << "signal " << signals[k % 3] << " at " << delay.count() << " us (status " << status << ") left "
+            << left.front() << " and " << left.size() - 1 << " more";
+        ++everything;
+    }
+    std::printf("interruptions of a fresh case: nothing left %d times, all outputs %d times\n", nothing, everything);
+    EXPECT_GT(nothing, 0);
+}
+
 } // namespace
 } // namespace scalemesh
