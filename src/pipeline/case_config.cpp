@@ -239,7 +239,7 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
     config.layer_tolerance = volume.number("layer_tolerance", 0.15, 0.0, 0.5, true);
     config.min_layer_coverage = volume.number("min_layer_coverage", 0.99, 0.0, 1.0);
     config.min_aspect_ratio = volume.number("min_aspect_ratio", 0.1, 0.0, 1.0);
-    config.min_dihedral_deg = volume.number("min_dihedral_deg", 0.0, 0.0, 70.0);
+    config.min_dihedral_deg = volume.number("min_dihedral_deg", 10.0, 0.0, 70.0);
 
     if (const toml::array* openings = root["openings"].as_array()) {
         std::set<std::string> names;

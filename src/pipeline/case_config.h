@@ -67,7 +67,7 @@ struct CaseConfig {
     // and an error exit with `scalemesh run --strict`.
     double min_layer_coverage = 0.99; // fraction of wall nodes with D >= L_min that keep all floor(M/2) layers
     double min_aspect_ratio = 0.1;    // worst tet aspect ratio (2 sqrt(6) r_in / l_max)
-    double min_dihedral_deg = 0;      // smallest dihedral angle, degrees (0: no floor)
+    double min_dihedral_deg = 10;     // smallest dihedral angle, degrees (0: no floor): a solver's cells
 
     // [[openings]]: inlets and outlets, patches in the file's order. A border
     // opening's explicit inset (spec.inset set) is resolved to mm with the

@@ -146,6 +146,20 @@ std::vector<std::string> floor_warnings(const CaseConfig& config, const Pipeline
     const VolumeResult& v = *run.volume;
     const LayerAccount& a = v.layers;
     char line[512];
+    // Parameters under which the method makes no layer at all pass every
+    // coverage floor vacuously: said so, and --strict fails them.
+    if (a.wall_nodes > 0 && a.layermaking == 0) {
+        std::snprintf(line, sizeof line,
+                      "M = %g makes no layers along the wall (floor(M/2) = 0 layers from each side); give M >= 2",
+                      config.M);
+        warnings.push_back(line);
+    } else if (a.wall_nodes > 0 && a.eligible_nodes == 0) {
+        std::snprintf(line, sizeof line,
+                      "no wall node has a local diameter D of at least L_min = %.4g mm, so none is owed its %d "
+                      "layers; give an L_min below the vessels' diameters",
+                      run.L_min, a.layermaking);
+        warnings.push_back(line);
+    }
     if (a.coverage() < config.min_layer_coverage) {
         std::string why;
         for (int k = 1; k < kLayerLossKinds; ++k)

@@ -48,5 +48,36 @@ TEST(FloorWarnings, FacesCheckMeshWouldFailAreWarnedOf)
     EXPECT_NE(warnings[0].find("worst skewness 4.37"), std::string::npos) << warnings[0];
 }
 
+// Parameters that make no layer at all pass the coverage floor vacuously
+// (no node is owed a layer): each is warned of, so that --strict fails it.
+TEST(FloorWarnings, ParametersThatMakeNoLayersAreWarnedOf)
+{
+    CaseConfig config;
+    PipelineRun run;
+    run.volume.emplace();
+    run.volume->after_slivers.min_aspect_ratio = 0.3;
+    run.volume->after_slivers.min_dihedral_deg = 20;
+    LayerAccount& a = run.volume->layers;
+    a.wall_nodes = 120;
+    a.layermaking = 3;
+    a.eligible_nodes = a.eligible_full = 120;
+    EXPECT_TRUE(floor_warnings(config, run).empty());
+
+    config.M = 1.5;
+    a.layermaking = 0;
+    std::vector<std::string> warnings = floor_warnings(config, run);
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_NE(warnings[0].find("M = 1.5 makes no layers along the wall"), std::string::npos) << warnings[0];
+
+    config.M = 7;
+    a.layermaking = 3;
+    a.eligible_nodes = a.eligible_full = 0;
+    run.L_min = 100;
+    warnings = floor_warnings(config, run);
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_NE(warnings[0].find("no wall node has a local diameter D of at least L_min = 100 mm"), std::string::npos)
+        << warnings[0];
+}
+
 } // namespace
 } // namespace scalemesh
