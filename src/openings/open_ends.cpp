@@ -4,6 +4,7 @@
 #include "core/errors.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <cmath>
 #include <numeric>
 #include <sstream>
@@ -206,6 +207,21 @@ ClosedEnds close_open_ends(const SurfaceMesh& surface, const std::string& what, 
     return result;
 }
 
+std::string why_not_a_cap(const LabelPart& part)
+{
+    if (part.cap) return "";
+    if (part.wall) return "it is the wall (the label of the largest area)";
+    char text[200];
+    if (!std::isfinite(part.flatness)) return "its faces do not face one way (not a plane)";
+    if (part.flatness > part.tolerance) {
+        std::snprintf(text, sizeof text, "not flat: its points leave its plane by up to %.3g of sqrt(area), beyond %.3g",
+                      part.flatness, part.tolerance);
+        return text;
+    }
+    std::snprintf(text, sizeof text, "its faces are %d separate pieces", part.pieces);
+    return text;
+}
+
 LabelCaps remove_label_caps(const SurfaceMesh& surface, const std::vector<int32_t>& labels, double flat_tolerance)
 {
     if (labels.size() != surface.triangles.size())
@@ -240,23 +256,29 @@ LabelCaps remove_label_caps(const SurfaceMesh& surface, const std::vector<int32_
         part.triangles = static_cast<int64_t>(s.triangles.size());
         part.area = s.area;
         part.flatness = INFINITY;
+        part.tolerance = flat_tolerance;
+        part.wall = label == wall;
         if (s.area > 0 && norm(s.vector_area) > 0.5 * s.area) {
             const Vec3 normal = normalized(s.vector_area);
             const Vec3 centroid = s.centroid / s.area;
-            double deviation = 0;
+            double deviation = 0, largest = 0;
             for (int32_t t : s.triangles)
-                for (int32_t p : surface.triangles[t])
+                for (int32_t p : surface.triangles[t]) {
                     deviation = std::max(deviation, std::abs(dot(surface.points[p] - centroid, normal)));
+                    largest = std::max({largest, std::abs(surface.points[p].x), std::abs(surface.points[p].y),
+                                        std::abs(surface.points[p].z)});
+                }
             part.flatness = deviation / std::sqrt(s.area);
+            // A float32 coordinate is within 2^-24 of its value relative to
+            // itself: a cap that is flat in the file's own precision.
+            constexpr double kSingleRounding = 5.9604644775390625e-08; // 2^-24
+            part.tolerance = std::max(flat_tolerance, 8 * kSingleRounding * largest / std::sqrt(s.area));
         }
-        if (label != wall && part.flatness <= flat_tolerance) {
-            SurfaceMesh piece;
-            piece.points = surface.points;
-            for (int32_t t : s.triangles) piece.triangles.push_back(surface.triangles[t]);
-            int32_t components = 0;
-            triangle_components(piece, &components);
-            part.cap = components == 1;
-        }
+        SurfaceMesh piece;
+        piece.points = surface.points;
+        for (int32_t t : s.triangles) piece.triangles.push_back(surface.triangles[t]);
+        triangle_components(piece, &part.pieces);
+        part.cap = !part.wall && part.flatness <= part.tolerance && part.pieces == 1;
         if (part.cap)
             for (int32_t t : s.triangles) removed[t] = 1;
         result.parts.push_back(part);

@@ -67,8 +67,16 @@ struct LabelPart {
     int64_t triangles = 0;
     double area = 0;          // mm^2
     double flatness = 0;      // largest distance of its points from their best-fit plane, over sqrt(area)
+    double tolerance = 0;     // the flatness it was allowed: flat_tolerance, or its coordinates' single-precision
+                              // rounding over sqrt(area) where that is larger
+    int32_t pieces = 0;       // edge-connected pieces of its faces
+    bool wall = false;        // the label of the largest area, never a cap
     bool cap = false;         // taken out as an end
 };
+
+// Why `part` is not a cap, in words ("not flat: its points leave its plane
+// by up to 1.8e-06 of sqrt(area), beyond 1e-06"), or "" for a cap.
+std::string why_not_a_cap(const LabelPart& part);
 
 struct LabelCaps {
     SurfaceMesh surface;            // the surface without the cap faces (open where they were)
@@ -77,7 +85,10 @@ struct LabelCaps {
 };
 
 // Takes the labelled end caps out of a closed surface: a label is a cap when
-// its faces lie on one plane (flatness below `flat_tolerance`), form one
+// its faces lie on one plane (flatness below `flat_tolerance`, or below
+// eight single-precision roundings of its largest coordinate over
+// sqrt(area), so that caps read from float32 files such as STL and most VTP
+// count as flat in any units), form one
 // edge-connected piece, and it is not the label of the largest area (the
 // wall). Everything else stays. The result is open where the caps were.
 LabelCaps remove_label_caps(const SurfaceMesh& surface, const std::vector<int32_t>& labels,

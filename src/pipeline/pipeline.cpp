@@ -252,7 +252,15 @@ std::string import_surface(LabelledSurface read, const std::string& what, const 
             note << " " << part.label;
             const auto name = read.labels.names.find(part.label);
             if (name != read.labels.names.end()) note << " '" << name->second << "'";
-            note << (part.cap ? " flat cap" : " wall") << (&part == &caps.parts.back() ? "" : ",");
+            note << (part.cap ? " flat cap" : " wall");
+            // A label nearly flat but refused as a cap is most likely a cap
+            // the tolerance missed: why, and by how much.
+            if (!part.cap && !part.wall && part.flatness <= 1e-3) {
+                note << " (" << why_not_a_cap(part) << ")";
+                run.warnings.push_back("face label " + std::to_string(part.label) + " of " + what +
+                                       " is nearly flat but taken as wall, not as an opening: " + why_not_a_cap(part));
+            }
+            note << (&part == &caps.parts.back() ? "" : ",");
         }
         surface = std::move(caps.surface);
         loop_labels = std::move(caps.loop_label);
@@ -350,13 +358,16 @@ std::vector<OpeningSpec> end_openings(const CaseConfig& config, const PipelineRu
             for (size_t i = 0; i < run.open_ends.size(); ++i)
                 if (run.open_ends[i].label == *opening.label) best = i;
             if (best == run.open_ends.size()) {
-                std::string have;
-                for (const LabelPart& part : run.label_parts)
+                std::string have, why;
+                for (const LabelPart& part : run.label_parts) {
                     if (part.cap) have += (have.empty() ? "" : ", ") + std::to_string(part.label);
+                    if (part.label == *opening.label && !part.cap) why = ": label " + std::to_string(part.label) +
+                                                                       " is there, but " + why_not_a_cap(part);
+                }
                 throw InputError("opening '" + opening.spec.name + "': no flat labelled cap has label " +
                                      std::to_string(*opening.label) +
                                      (run.label_source.empty() ? " (the input has no face labels)"
-                                                               : " (" + run.label_source + ")"),
+                                                               : " (" + run.label_source + ")") + why,
                                  have.empty() ? "name the opening by near = [x, y, z] or give a clip plane"
                                               : "choose one of the cap labels: " + have);
             }

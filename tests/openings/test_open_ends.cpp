@@ -185,6 +185,43 @@ TEST(OpenEnds, ACurvedLabelStaysWall)
     for (const LabelPart& part : caps.parts) EXPECT_EQ(part.cap, part.label == 2 || part.label == 3) << part.label;
 }
 
+// A cap read from a float32 file far from the origin (a model in cm, placed
+// at 100 cm) is flat only to the coordinates' single-precision rounding:
+// still a cap. A cap bent by more than that is not, and says by how much.
+TEST(OpenEnds, ACapFlatToSinglePrecisionIsACapAndABentOneSaysByHowMuch)
+{
+    std::vector<int32_t> labels;
+    SurfaceMesh tube = capped_tube(20, 8, 0.2, 1.5, labels);
+    const double a = 0.5, b = 0.3; // tilted, so that rounding moves the cap points off its plane
+    for (Vec3& p : tube.points) {
+        const Vec3 q{p.x, std::cos(a) * p.y - std::sin(a) * p.z, std::sin(a) * p.y + std::cos(a) * p.z};
+        p = Vec3{std::cos(b) * q.x + std::sin(b) * q.z, q.y, -std::sin(b) * q.x + std::cos(b) * q.z} +
+            Vec3{100, 100, 100};
+        for (int k = 0; k < 3; ++k) p[k] = static_cast<double>(static_cast<float>(p[k]));
+    }
+    LabelCaps caps = remove_label_caps(tube, labels);
+    ASSERT_EQ(caps.parts.size(), 3u);
+    for (const LabelPart& part : {caps.parts[1], caps.parts[2]}) {
+        EXPECT_GT(part.flatness, 1e-6) << "the rounding alone bends the cap beyond the default tolerance";
+        EXPECT_TRUE(part.cap) << part.label << ": " << why_not_a_cap(part);
+        EXPECT_EQ(why_not_a_cap(part), "");
+    }
+    EXPECT_EQ(why_not_a_cap(caps.parts[0]), "it is the wall (the label of the largest area)");
+
+    // One point of cap 3 pushed 1% of the radius off its plane.
+    for (size_t t = 0; t < tube.triangles.size(); ++t)
+        if (labels[t] == 3) {
+            tube.points[tube.triangles[t][0]].z += 0.002;
+            break;
+        }
+    caps = remove_label_caps(tube, labels);
+    EXPECT_TRUE(caps.parts[1].cap);
+    EXPECT_FALSE(caps.parts[2].cap);
+    const std::string why = why_not_a_cap(caps.parts[2]);
+    EXPECT_EQ(why.rfind("not flat: its points leave its plane by up to ", 0), 0u) << why;
+    EXPECT_NE(why.find(" of sqrt(area), beyond "), std::string::npos) << why;
+}
+
 TEST(OpenEnds, EndOpeningsCutTheEndsFlatAndCapThem)
 {
     const ClosedEnds closed = close_open_ends(open_tube(24, 16, 2.0, 2.0, 20), "tube");
