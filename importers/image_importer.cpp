@@ -14,6 +14,7 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <array>
 #include <bit>
 #include <cctype>
@@ -151,7 +152,27 @@ int nifti_scalar_bytes(int datatype)
 // by 1, and lets nifti1_io print header errors to stderr. So the NIfTI-1
 // header is checked here first, and the data length counted (for .nii.gz at
 // the cost of inflating the file once more).
-void check_nifti(const std::filesystem::path& path)
+// The import holds the voxels as read (component_bytes each) and the grid
+// made of them (a float each, for a level set): refused before any voxel is
+// read, or inflated, when that is more than `max_bytes` (0: no bound).
+void require_image_memory(const std::string& name, double voxels, int component_bytes, int64_t max_bytes)
+{
+    const double needed = voxels * (component_bytes + sizeof(float));
+    if (max_bytes <= 0 || needed <= static_cast<double>(max_bytes)) return;
+    const auto gib = [](double bytes) {
+        char text[32];
+        if (bytes < 1024.0 * 1024.0 * 1024.0) std::snprintf(text, sizeof text, "%.3g MiB", bytes / (1024.0 * 1024.0));
+        else std::snprintf(text, sizeof text, "%.3g GiB", bytes / (1024.0 * 1024.0 * 1024.0));
+        return std::string(text);
+    };
+    throw InputError(name + " holds " + number(voxels) + " voxels of " + std::to_string(component_bytes) +
+                         " bytes, which would take about " + gib(needed) + " to import, more than the " +
+                         gib(static_cast<double>(max_bytes)) + " allowed",
+                     "crop the image to the region of interest (or resample it coarser), or raise --max-memory on "
+                     "a machine with more memory");
+}
+
+void check_nifti(const std::filesystem::path& path, int64_t max_bytes)
 {
     const std::string name = path.string();
     const std::string hint = "the file may be truncated or corrupt; re-export it";
@@ -207,6 +228,7 @@ void check_nifti(const std::filesystem::path& path)
         throw InputError(name + " has NIfTI datatype " + std::to_string(datatype) +
                              ", not an integer or floating-point scalar",
                          "give a label map, an intensity image or a level set with one number per voxel");
+    require_image_memory(name, voxels, bytes, max_bytes);
     for (int d = 1; d <= std::min(rank, 3); ++d) {
         const float spacing = load(76 + 4 * static_cast<size_t>(d), float{});
         if (!std::isfinite(spacing) || spacing == 0 || std::abs(spacing) > 1e9f)
@@ -535,7 +557,18 @@ std::optional<int64_t> data_file_size(itk::ImageIOBase& io, const std::filesyste
     }
     if (data_file.empty()) return size_of(path);
     if (data_file.starts_with("LIST") || data_file.find_first_of("% \t") != std::string::npos) return std::nullopt;
-    return size_of(path.parent_path() / data_file);
+    // A device (/dev/zero) or a FIFO would be read without end or wait
+    // forever: only a regular file holds voxels.
+    const std::filesystem::path data = std::filesystem::path(data_file).is_absolute()
+                                           ? std::filesystem::path(data_file)
+                                           : path.parent_path() / data_file;
+    std::error_code ec;
+    const std::filesystem::file_status status = std::filesystem::status(data, ec);
+    if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status))
+        throw InputError(path.string() + " names " + data.string() + " as its data file, which is not a regular file "
+                                         "(a device, a FIFO or a directory)",
+                         "point the header at the file holding the voxels");
+    return size_of(data);
 }
 
 // A corrupt header can promise gigabytes of voxels in a file of a few bytes:
@@ -582,7 +615,7 @@ void read_voxels(itk::ImageIOBase& io, RawImage& image, const std::string& name)
                          "the file may be truncated or corrupt; re-export it");
 }
 
-RawImage read_with_itk(const std::filesystem::path& path, Format format)
+RawImage read_with_itk(const std::filesystem::path& path, Format format, int64_t max_bytes)
 {
     static std::once_flag quiet_nifti;
     std::lock_guard<std::mutex> lock(g_itk_mutex);
@@ -595,6 +628,8 @@ RawImage read_with_itk(const std::filesystem::path& path, Format format)
     try {
         itk::ImageIOBase::Pointer io = make_io(format);
         read_header(*io, name, format, image);
+        require_image_memory(name, static_cast<double>(image.voxels()), static_cast<int>(io->GetComponentSize()),
+                             max_bytes);
         check_data_size(*io, image, path);
         const size_t said_before = captured.text().size();
         read_voxels(*io, image, name);
@@ -928,9 +963,9 @@ openvdb::FloatGrid::Ptr read_image(const std::filesystem::path& path, const Imag
         throw IoError(name, "cannot be opened for reading; check its permissions");
 
     if (*format == Format::Vti) return voxels_to_grid(from_vti(read_vti_volume(path)), params, name);
-    if (*format == Format::Nifti) check_nifti(path);
+    if (*format == Format::Nifti) check_nifti(path, params.max_bytes);
     if (*format == Format::MetaImage) check_metaimage(path);
-    return voxels_to_grid(read_with_itk(path, *format), params, name);
+    return voxels_to_grid(read_with_itk(path, *format, params.max_bytes), params, name);
 }
 
 } // namespace scalemesh

@@ -17,6 +17,9 @@ struct ImageImportParams {
     std::vector<int> labels{};          // label values merged into inside; empty: any nonzero voxel
     std::optional<double> threshold{};  // intensity images: inside where value > threshold (image units)
     bool level_set = false;             // signed field, negative inside: values kept as they are
+    int64_t max_bytes = 0;              // memory the import may take (the run's --max-memory): an image whose
+                                        // header promises more voxels than fit is refused before they are
+                                        // read or inflated; 0: no bound
 };
 
 // Reads a 3D scalar image from .nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd or
@@ -60,7 +63,10 @@ struct ImageImportParams {
 // parse (wrong magic, bad header: ITK's reason in one line), data shorter
 // than the header promises, a 1D/2D image, a 4D image with more than one
 // volume, a multi-component (vector, RGB, complex) image, a zero size, more
-// than 2^31 voxels, a non-positive or non-finite spacing, a singular
+// than 2^31 voxels, more voxels than params.max_bytes holds (counted from the
+// header, before any voxel is read or inflated), a data file named by the
+// header that is not a regular file (a device or a FIFO), a non-positive or
+// non-finite spacing, a singular
 // direction matrix, NaN or infinite voxel values, NIfTI-2 (ITK 5.2 reads
 // NIfTI-1 only), MetaImage voxels stored as text, a .vti that is not one piece
 // of point data or whose stated sizes, offsets or compressed blocks do not

@@ -464,7 +464,8 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
                 run.input = file.string();
                 run.input_checksum = file_checksum(file);
             } else if (is_image_file(file)) {
-                grid = read_image(file, {config.labels, config.threshold, config.level_set});
+                grid = read_image(file, {config.labels, config.threshold, config.level_set,
+                                         options.max_memory > 0 ? options.max_memory : physical_memory()});
                 run.input = file.string();
                 run.input_checksum = file_checksum(file);
             } else {

@@ -11,6 +11,8 @@
 #include "isosurface/marching_cubes.h"
 
 #include <gtest/gtest.h>
+
+#include <sys/stat.h>
 #include <zlib.h>
 
 #include <array>
@@ -603,6 +605,53 @@ TEST(ImageImporter, ReadsASingleVolume4DImageAndRefuses2DAndSeries)
     // NRRD keeps a trailing size 1 as a fourth axis.
     write_bytes(s.dir / "one.nrrd", nrrd("4 4 4 1", "", "uchar", std::string(64, '\1'), 4));
     EXPECT_EQ(read_image(s.dir / "one.nrrd")->activeVoxelCount(), 64u);
+}
+
+// The import's memory is bounded before any voxel is read: a compressed
+// NIfTI whose header promises more voxels than the bound is refused without
+// inflating it, and so is a MetaImage; a header that points its data at a
+// device or a FIFO is refused rather than read without end or waited on.
+TEST(ImageImporter, RefusesImagesBeyondTheMemoryBoundAndDataFilesThatAreNotFiles)
+{
+    const Scratch s;
+    Nifti n;
+    n.dim = {3, 64, 64, 64, 1, 1, 1, 1};
+    n.data.assign(64 * 64 * 64, '\1');
+    write_gz(s.dir / "ones.nii.gz", n.bytes());
+    // 262,144 voxels of one byte and a float each: 1.25 MiB.
+    try {
+        read_image(s.dir / "ones.nii.gz", {.max_bytes = 1 << 20});
+        FAIL() << "read beyond the bound";
+    } catch (const InputError& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("holds 262144 voxels of 1 bytes, which would take about 1.25 MiB to import, more "
+                            "than the 1 MiB allowed"),
+                  std::string::npos)
+            << what;
+        EXPECT_NE(what.find("Hint: crop the image"), std::string::npos) << what;
+    }
+    // Within the bound, the same file is read.
+    EXPECT_EQ(read_image(s.dir / "ones.nii.gz", {.max_bytes = 2 << 20})->activeVoxelCount(), 64u * 64 * 64);
+    write_bytes(s.dir / "big.mha", mha({64, 64, 64}, {1, 1, 1}, {0, 0, 0}, "MET_UCHAR", std::string(64 * 64 * 64, '\1')));
+    EXPECT_THROW(read_image(s.dir / "big.mha", {.max_bytes = 1 << 20}), InputError);
+    EXPECT_EQ(read_image(s.dir / "big.mha", {.max_bytes = 2 << 20})->activeVoxelCount(), 64u * 64 * 64);
+
+    // A header whose voxels are /dev/zero (1260^3 of them), and one whose
+    // voxels are a FIFO no one writes.
+    write_bytes(s.dir / "device.mhd", "ObjectType = Image\nNDims = 3\nBinaryData = True\nDimSize = 1260 1260 1260\n"
+                                      "ElementType = MET_UCHAR\nElementDataFile = /dev/zero\n");
+    ASSERT_EQ(::mkfifo((s.dir / "voxels.raw").c_str(), 0600), 0);
+    write_bytes(s.dir / "fifo.mhd", "ObjectType = Image\nNDims = 3\nBinaryData = True\nDimSize = 4 4 4\n"
+                                    "ElementType = MET_UCHAR\nElementDataFile = voxels.raw\n");
+    for (const char* name : {"device.mhd", "fifo.mhd"}) {
+        try {
+            read_image(s.dir / name);
+            FAIL() << name << " was read";
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find("as its data file, which is not a regular file"), std::string::npos)
+                << e.what();
+        }
+    }
 }
 
 TEST(ImageImporter, RefusesMalformedFiles)
