@@ -25,9 +25,6 @@ public:
     void add(const std::string& relative, const std::string& text)
     {
         const std::filesystem::path path = dir_ / relative;
-        std::error_code ec;
-        std::filesystem::create_directories(path.parent_path(), ec);
-        if (ec) throw IoError(path.parent_path().string(), "cannot create the directory: " + ec.message());
         outputs_.push_back(std::make_unique<AtomicOutput>(path));
         std::ofstream out(outputs_.back()->temporary());
         out << text << "\n// ************************************************************************* //\n";

@@ -633,10 +633,9 @@ PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& 
     counts.patch_faces = order.patch_faces;
     counts.quad_faces = grouped.quads;
 
+    // AtomicOutput makes the directory (and takes it along if the files
+    // never come).
     const std::filesystem::path dir = case_dir / "constant" / "polyMesh";
-    std::error_code ec;
-    std::filesystem::create_directories(dir, ec);
-    if (ec) throw IoError(dir.string(), "cannot create the directory: " + ec.message());
 
     const bool binary = options.binary;
     std::vector<std::unique_ptr<AtomicOutput>> outputs;

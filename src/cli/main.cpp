@@ -159,7 +159,9 @@ int main(int argc, char** argv)
         std::reverse(args.begin(), args.end()); // CLI11 takes them last first
         app.parse(args);
     } catch (const CLI::ParseError& e) {
-        return app.exit(e);
+        // --help and --version end with 0; every other command-line error
+        // with 2, the code of any bad input (CLI11's own are 100 and up).
+        return app.exit(e) == 0 ? 0 : 2;
     }
     const Verbosity verbosity = quiet ? Verbosity::Quiet : (verbose ? Verbosity::Verbose : Verbosity::Normal);
     const bool terminal = ::isatty(STDERR_FILENO) == 1;
@@ -240,26 +242,41 @@ int main(int argc, char** argv)
             const CaseResult result =
                 run_case(case_dir, both(display.listener(), log_display->listener()), threads, memory_bound);
             const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+            // The warnings about the input (units, face labels) come first,
+            // before the summary, since they may change how to read it; the
+            // floors the mesh missed after it.
+            const size_t about_input = result.input_warnings;
+            const auto warn = [&](size_t from, size_t to) {
+                for (size_t i = from; i < to; ++i) {
+                    const std::string& w = result.warnings[i];
+                    if (verbosity != Verbosity::Quiet || strict) std::fprintf(stderr, "scalemesh: warning: %s\n", w.c_str());
+                    std::fprintf(log_file.get(), "scalemesh: warning: %s\n", w.c_str());
+                }
+            };
+            warn(0, about_input);
             display.summary(config, result, seconds);
             log_display->summary(config, result, seconds);
-            for (const std::string& w : result.warnings) {
-                if (verbosity != Verbosity::Quiet || strict) std::fprintf(stderr, "scalemesh: warning: %s\n", w.c_str());
-                std::fprintf(log_file.get(), "scalemesh: warning: %s\n", w.c_str());
-            }
+            warn(about_input, result.warnings.size());
+            const size_t floors = result.warnings.size() - about_input;
             const bool missed_floors = strict && !result.warnings.empty();
-            char strict_line[512];
-            std::snprintf(strict_line, sizeof strict_line,
-                          "scalemesh: error: the mesh misses %zu of the case's floors (--strict); the outputs "
-                          "and report.json (\"warnings\") are written for inspection. Hint: refine (smaller "
-                          "L_max, larger M) or lower the floors in [volume]\n",
-                          result.warnings.size());
-            if (missed_floors) std::fputs(strict_line, log_file.get());
+            std::string strict_line = "scalemesh: error: ";
+            if (floors > 0) strict_line += "the mesh misses " + std::to_string(floors) + " of the case's floors";
+            if (floors > 0 && about_input > 0) strict_line += ", and ";
+            if (about_input > 0)
+                strict_line += "the run warned " + std::to_string(about_input) + " time" + (about_input == 1 ? "" : "s") +
+                               " about its input";
+            strict_line += " (--strict); the outputs and report.json (\"warnings\") are written for inspection. Hint: ";
+            if (about_input > 0) strict_line += "act on the warnings about the input (units, face labels, openings)";
+            if (floors > 0 && about_input > 0) strict_line += ", then ";
+            if (floors > 0) strict_line += "refine (smaller L_max, larger M) or lower the floors in [volume]";
+            strict_line += "\n";
+            if (missed_floors) std::fputs(strict_line.c_str(), log_file.get());
             log_display.reset();
             if (std::fclose(log_file.release()) != 0)
                 throw IoError(log_output.path().string(), "cannot write the run's log");
             log_output.commit();
             if (missed_floors) {
-                std::fputs(strict_line, stderr);
+                std::fputs(strict_line.c_str(), stderr);
                 return 6;
             }
         }

@@ -32,22 +32,32 @@ int register_pending(const std::string& name)
     return -1;
 }
 
-// Removes the directory holding `path`, and the one above, where they are
-// empty: what a writer created for outputs that never came (constant/ and
-// constant/polyMesh/ of an interrupted run). Async-signal-safe (rmdir on a
-// copy of the name).
-void remove_empty_parents(const char* path) noexcept
+// The directories made for outputs not yet committed (created by
+// AtomicOutput, missing before): removed again, when empty, with outputs that
+// never came. A fixed table, readable from a signal handler.
+std::array<std::atomic<bool>, kMaxPending> g_made_in_use{};
+std::array<std::array<char, kMaxName>, kMaxPending> g_made{};
+
+void register_made(const std::string& dir)
 {
-    std::array<char, kMaxName> dir;
-    const size_t length = ::strnlen(path, kMaxName - 1);
-    std::memcpy(dir.data(), path, length);
-    dir[length] = 0;
-    for (int level = 0; level < 2; ++level) {
-        char* slash = std::strrchr(dir.data(), '/');
-        if (!slash || slash == dir.data()) return;
-        *slash = 0;
-        if (::rmdir(dir.data()) != 0) return; // not empty (or not ours to remove)
+    if (dir.size() + 1 > kMaxName) return;
+    for (int i = 0; i < kMaxPending; ++i) {
+        bool expected = false;
+        if (!g_made_in_use[i].load() && g_made_in_use[i].compare_exchange_strong(expected, true)) {
+            std::memcpy(g_made[i].data(), dir.c_str(), dir.size() + 1);
+            return;
+        }
     }
+}
+
+// rmdir on every made directory that is empty; twice, so that a directory
+// emptied by the first round (constant/ once polyMesh/ went) goes too.
+// Async-signal-safe.
+void remove_made_directories() noexcept
+{
+    for (int round = 0; round < 2; ++round)
+        for (int i = 0; i < kMaxPending; ++i)
+            if (g_made_in_use[i].load() && ::rmdir(g_made[i].data()) == 0) g_made_in_use[i].store(false);
 }
 
 void unregister_pending(int slot)
@@ -70,6 +80,18 @@ static_assert(std::atomic<int>::is_always_lock_free, "read from signal handlers"
 
 AtomicOutput::AtomicOutput(std::filesystem::path path) : path_(std::move(path))
 {
+    // The directories the output needs, made here so that an output that
+    // never comes takes the ones it made along (never one that was there).
+    std::vector<std::filesystem::path> missing;
+    std::error_code ec;
+    for (std::filesystem::path dir = std::filesystem::absolute(path_, ec).parent_path();
+         !dir.empty() && !std::filesystem::exists(dir, ec) && dir != dir.parent_path(); dir = dir.parent_path())
+        missing.push_back(dir);
+    for (auto dir = missing.rbegin(); dir != missing.rend(); ++dir) {
+        if (!std::filesystem::create_directory(*dir, ec) && ec)
+            throw IoError(dir->string(), "cannot create the directory: " + ec.message());
+        register_made(dir->string());
+    }
     std::string name = path_.stem().string() + ".partial-" + std::to_string(::getpid()) + path_.extension().string();
     temporary_ = path_.parent_path() / name;
     slot_ = register_pending(std::filesystem::absolute(temporary_).string());
@@ -80,7 +102,7 @@ AtomicOutput::~AtomicOutput()
     if (!committed_) {
         std::error_code ignored;
         std::filesystem::remove(temporary_, ignored);
-        remove_empty_parents(std::filesystem::absolute(temporary_, ignored).c_str());
+        remove_made_directories();
     }
     unregister_pending(slot_);
 }
@@ -122,6 +144,8 @@ void commit_all(StagedOutputs& outputs)
         finish();
         throw;
     }
+    // The directories made now hold committed outputs: they stay.
+    for (auto& in_use : g_made_in_use) in_use.store(false);
     finish();
 }
 
@@ -144,10 +168,8 @@ void signal_handled() noexcept { g_commit_state.fetch_add(1); }
 void remove_pending_outputs() noexcept
 {
     for (int i = 0; i < kMaxPending; ++i)
-        if (g_in_use[i].load()) {
-            ::unlink(g_names[i].data());
-            remove_empty_parents(g_names[i].data());
-        }
+        if (g_in_use[i].load()) ::unlink(g_names[i].data());
+    remove_made_directories();
 }
 
 } // namespace scalemesh

@@ -155,7 +155,7 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
     if (!config.file.empty() && (input.has("voxel_size") || input.has("noise") || input.has("seed")))
         throw InputError(source + ": [input] voxel_size, noise and seed apply to phantoms only",
                          "an image file carries its own voxel size; remove those keys");
-    config.voxel_size = input.number("voxel_size", config.voxel_size, 0, 1e6, true);
+    config.voxel_size = input.number("voxel_size", config.voxel_size, 1e-5, 1e6); // OpenVDB cannot invert a smaller transform
     config.noise = input.number("noise", config.noise, 0, 10);
     const int64_t seed = input.get<int64_t>("seed").value_or(1);
     if (seed < 0) throw InputError(input.where("seed") + " must not be negative", "give a seed >= 0");
@@ -420,6 +420,8 @@ CaseConfig read_case(const std::filesystem::path& dir)
     std::error_code ec;
     if (!std::filesystem::is_directory(dir, ec))
         throw IoError(dir.string(), "no such case directory; give a directory holding scalemesh.toml");
+    if (std::filesystem::exists(file, ec) && !std::filesystem::is_regular_file(file, ec))
+        throw IoError(file.string(), "is not a file (a directory?); the case file must be a TOML text file");
     std::ifstream in(file);
     if (!in) throw IoError(file.string(), "no case file; a case directory needs a scalemesh.toml (see docs/case-file.md)");
     std::stringstream text;

@@ -60,14 +60,23 @@ int64_t parse_memory_size(const std::string& text, const std::string& what)
     if (unit.size() > 1 || power == std::string::npos || !(value > 0) || !std::isfinite(value)) throw refuse();
     const double bytes = value * std::pow(1024.0, static_cast<double>(power));
     if (bytes >= 9e18) throw refuse();
+    // A bound below a mebibyte is a unit forgotten ("0.5" meaning 0.5G), not
+    // a limit any run could keep (0 bytes would mean no limit at all).
+    if (bytes < 0x1p20)
+        throw InputError(what + " '" + text + "' is " + std::to_string(static_cast<int64_t>(bytes)) +
+                             " bytes, less than any run needs",
+                         "a bare number is bytes: give a unit, e.g. 8G or 512M");
     return static_cast<int64_t>(bytes);
 }
 
 std::string memory_text(double bytes)
 {
-    char text[32];
-    // Binary units, as --max-memory reads them.
-    if (bytes >= 0x1p30) std::snprintf(text, sizeof text, "%.1f GiB", bytes / 0x1p30);
+    char text[64];
+    // Binary units, as --max-memory reads them; beyond a thousand TiB (a
+    // mesh no machine holds) in powers of ten, so the unit is never cut off.
+    if (!std::isfinite(bytes) || bytes >= 0x1p50) std::snprintf(text, sizeof text, "%.3g TiB", bytes / 0x1p40);
+    else if (bytes >= 0x1p40) std::snprintf(text, sizeof text, "%.1f TiB", bytes / 0x1p40);
+    else if (bytes >= 0x1p30) std::snprintf(text, sizeof text, "%.1f GiB", bytes / 0x1p30);
     else std::snprintf(text, sizeof text, "%.0f MiB", bytes / 0x1p20);
     return text;
 }
@@ -106,8 +115,9 @@ void require_memory(double estimate, int64_t bound, const std::string& basis)
     if (estimate <= static_cast<double>(bound)) return;
     throw InputError("the mesh would need about " + memory_text(estimate) + " of memory (" + basis +
                          "), more than the " + memory_text(static_cast<double>(bound)) + " allowed",
-                     "use a larger voxel size, a smaller [sizing] L_max (fewer filler points inside) or a "
-                     "region of interest (crop the image), or raise --max-memory on a machine with more memory");
+                     "use a larger voxel size, a larger [sizing] L_max or L_min (coarser cells where the "
+                     "cross-sections are wide or narrow), a smaller M, or a region of interest (crop the image), or "
+                     "raise --max-memory on a machine with more memory");
 }
 
 } // namespace scalemesh

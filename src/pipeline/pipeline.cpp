@@ -18,6 +18,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <iomanip>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -153,7 +154,10 @@ std::pair<int64_t, double> drop_closed_regions(SurfaceMesh& surface)
 std::string points_basis(double points, double M, const std::string& from)
 {
     std::ostringstream out;
-    out << "about " << std::llround(points) << " volume mesh points for M = " << M << " layers, " << from;
+    out << "about ";
+    if (points < 1e12) out << std::llround(points);
+    else out << std::setprecision(3) << points; // beyond what llround holds
+    out << " volume mesh points for M = " << M << " layers, " << from;
     return out.str();
 }
 
@@ -282,6 +286,39 @@ std::string import_surface(LabelledSurface read, const std::string& what, const 
     run.isosurface = surface_facts(surface);
     if (const std::string warning = units_warning(surface, config); !warning.empty()) run.warnings.push_back(warning);
     return note.str();
+}
+
+// A segmentation that reaches a side of its image was most likely cut there
+// by the scan: without a border opening on that side the vessel is meshed
+// closed at the image's edge. Warned of, with the area it touches.
+void warn_of_border_contact(const openvdb::FloatGrid& grid, const ImageFrame& frame, const CaseConfig& config,
+                            PipelineRun& run)
+{
+    std::array<int64_t, 6> touching{}; // voxels on the sides x-, x+, y-, y+, z-, z+
+    for (auto v = grid.cbeginValueOn(); v; ++v) {
+        const openvdb::Coord c = v.getCoord();
+        for (int k = 0; k < 3; ++k) {
+            touching[2 * k] += c[k] == 0;
+            touching[2 * k + 1] += c[k] == frame.size[k] - 1;
+        }
+    }
+    static const char* const kSides[6] = {"x-", "x+", "y-", "y+", "z-", "z+"};
+    for (int s = 0; s < 6; ++s) {
+        if (touching[s] == 0) continue;
+        bool opened = false;
+        for (const CaseConfig::Opening& opening : config.openings)
+            opened = opened || (opening.spec.border && opening.spec.side == kSides[s]);
+        if (opened) continue;
+        const int k = s / 2;
+        const double face = norm(cross(frame.axis[(k + 1) % 3], frame.axis[(k + 2) % 3]));
+        char line[400];
+        std::snprintf(line, sizeof line,
+                      "the segmentation touches the image's %s side over %.4g mm^2 (%lld voxels) and is meshed "
+                      "closed there; if the vessel runs on beyond the image, add an opening with border = \"%s\"",
+                      kSides[s], face * static_cast<double>(touching[s]), static_cast<long long>(touching[s]),
+                      kSides[s]);
+        run.warnings.push_back(line);
+    }
 }
 
 // A clip plane's point belongs inside the lumen: one farther from the
@@ -488,9 +525,15 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
                 for (int k = 0; k < 3; ++k) frame.size[k] = size->value()[k];
             const openvdb::Vec3d spacing = grid->voxelSize();
             run.voxel_width = std::min({spacing.x(), spacing.y(), spacing.z()});
-            if (!is_level_set(*grid)) run.inside_voxels = static_cast<int64_t>(grid->activeVoxelCount());
-            clock.done(std::to_string(grid->activeVoxelCount()) + " active voxels of " +
-                       std::to_string(run.voxel_width) + " mm");
+            if (is_level_set(*grid)) {
+                clock.done(std::to_string(grid->activeVoxelCount()) + " voxels of a level set, " +
+                           std::to_string(run.voxel_width) + " mm");
+            } else {
+                run.inside_voxels = static_cast<int64_t>(grid->activeVoxelCount());
+                if (frame.size[0] > 0) warn_of_border_contact(*grid, frame, config, run);
+                clock.done(std::to_string(grid->activeVoxelCount()) + " inside voxels of " +
+                           std::to_string(run.voxel_width) + " mm");
+            }
         }
         StageClock clock(run, listener, "isosurface");
         surface = marching_cubes(*grid, {config.iso, config.connectivity});

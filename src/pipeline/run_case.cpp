@@ -336,11 +336,14 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
     if (run.remeshed) {
         const RemeshResult& r = *run.remeshed;
         const std::vector<VertexField> fields = surface_fields(run, config.K, config.M);
+        const auto ratio = std::find_if(fields.begin(), fields.end(),
+                                        [](const VertexField& f) { return f.name == "edge_length_ratio"; });
         report["remeshing"] = {{"merges", r.merges},
                                {"swaps", r.swaps},
                                {"bisections", r.bisections},
                                {"max_damage_mm", r.max_damage},
-                               {"edge_length_ratio", field_stats(fields.back().values)},
+                               {"edge_length_ratio", field_stats(ratio != fields.end() ? ratio->values
+                                                                                       : std::vector<double>{})},
                                {"d_mm", field_stats(r.sizing.d)}};
         report["remeshed_surface"] = facts_json(surface_facts(r.surface));
     }
@@ -524,6 +527,7 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
     // The polyMesh and case writers hand their files over uncommitted; all
     // are moved into place together, with interruptions held back.
     result.warnings = floor_warnings(config, result.run);
+    result.input_warnings = std::min(result.run.warnings.size(), result.warnings.size());
     result.orphaned_partials = orphans;
     StagedOutputs pending;
     const auto stage = [&](const std::string& name) {
@@ -611,6 +615,17 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
                                                    {.kinematic_viscosity = config.viscosity,
                                                     .inlet_speed = config.inlet_speed,
                                                     .staged = &pending});
+            if (!result.flow_case && !result.run.caps.empty()) {
+                int inlets = 0;
+                for (const PatchRole role : roles) inlets += role == PatchRole::Inlet;
+                result.warnings.insert(
+                    result.warnings.begin() + static_cast<std::ptrdiff_t>(result.input_warnings++),
+                    "the case has " + std::to_string(result.run.caps.size()) + " opening" +
+                    (result.run.caps.size() == 1 ? "" : "s") + " but " +
+                    (inlets == 0 ? std::string("no inlet") : std::string("no outlet")) +
+                    ", so no flow is posed: 0/U and 0/p are not written; give [[openings]] at least one "
+                    "type = \"inlet\" and one outlet");
+            }
             result.written.push_back(dir / "constant" / "polyMesh");
             result.written.push_back(dir / "constant" / "transportProperties");
             result.written.push_back(dir / "constant" / "turbulenceProperties");

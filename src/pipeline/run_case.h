@@ -26,6 +26,8 @@ struct CaseResult {
                                                 // non-orthogonality among them)
     bool flow_case = false;                     // whether 0/U and 0/p were written
     std::vector<std::string> warnings;          // the run's floors it missed (floor_warnings)
+    size_t input_warnings = 0;                  // of `warnings`, the first ones are about the input and the case
+                                                // (units, face labels, openings that pose no flow), not floors
 };
 
 // The run's warnings about its input (PipelineRun::warnings: an implausible

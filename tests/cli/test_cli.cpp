@@ -195,9 +195,28 @@ TEST(Cli, RefusesBadCaseFilesWithoutWritingOutput)
     expect_refused(run_scalemesh({"run", tmp.path.string()}), 2, "K");
     write_case("[input]\nphantom = \"tube\"\n[meshing]\nK = 1\n");
     expect_refused(run_scalemesh({"run", tmp.path.string()}), 2, "meshing");
+    write_case("[input]\nphantom = \"tube\"\nvoxel_size = 1e-10\n");
+    expect_refused(run_scalemesh({"run", tmp.path.string()}), 2, "voxel_size");
     write_case("[input\nphantom = \"tube\"\n");
     expect_refused(run_scalemesh({"run", tmp.path.string()}), 2, "scalemesh.toml:1");
     EXPECT_EQ(tmp.files(), std::vector<std::string>{"scalemesh.toml"});
+
+    // A case file that is a directory is named as such.
+    const TempDir odd;
+    std::filesystem::create_directories(odd.path / "scalemesh.toml");
+    expect_refused(run_scalemesh({"run", odd.path.string()}), 3, "scalemesh.toml: is not a file (a directory?)");
+}
+
+// Command-line mistakes end with 2, as bad input does (not CLI11's own 100 and
+// up); --help and --version with 0.
+TEST(Cli, CommandLineMistakesEndWithTwo)
+{
+    EXPECT_EQ(run_scalemesh({"run"}).exit_code, 2);                              // a missing argument
+    EXPECT_EQ(run_scalemesh({"run", ".", "--threads", "many"}).exit_code, 2);     // a conversion
+    EXPECT_EQ(run_scalemesh({"run", ".", "--no-such-flag"}).exit_code, 2);       // an unknown option
+    EXPECT_EQ(run_scalemesh({"frobnicate"}).exit_code, 2);                      // an unknown verb
+    EXPECT_EQ(run_scalemesh({"--version"}).exit_code, 0);
+    EXPECT_EQ(run_scalemesh({"--help"}).exit_code, 0);
 }
 
 // The case's floors ([volume] min_layer_coverage, min_aspect_ratio,

@@ -230,8 +230,15 @@ TEST(OpenSurfaces, AMetreScaleSurfaceWarnsWithTheLikelyUnit)
               std::string::npos)
         << r.err;
     EXPECT_EQ(report(tmp.path / "case")["warnings"].size(), 1u);
+    // Before the summary, where it changes how to read it.
+    EXPECT_LT(r.err.find("warning: the surface is 0.02 mm across"), r.err.find("\n  surface ")) << r.err;
     const CommandResult strict = run_scalemesh({"run", (tmp.path / "case").string(), "--strict"});
-    EXPECT_NE(strict.exit_code, 0);
+    EXPECT_EQ(strict.exit_code, 6);
+    EXPECT_NE(strict.err.find("scalemesh: error: the run warned 1 time about its input (--strict)"), std::string::npos)
+        << strict.err;
+    EXPECT_NE(strict.err.find("Hint: act on the warnings about the input (units, face labels, openings)\n"), std::string::npos)
+        << strict.err;
+    EXPECT_EQ(strict.err.find("refine"), std::string::npos) << strict.err;
 
     // Declared as metres, no warning.
     write_case(tmp.path / "m", (tmp.path / "tube.stl").string(), "units = \"m\"\n[volume]\nenabled = false\n");

@@ -97,6 +97,28 @@ TEST(CliOpenFoam, AFailedRunWritesNoLog)
     EXPECT_EQ(tmp.files(), (std::vector<std::string>{"ball", "ball/scalemesh.toml"}));
 }
 
+// Openings that pose no flow (one outlet, no inlet) leave 0/ unwritten, and
+// the run says so, as a warning about the case that --strict fails.
+TEST(CliOpenFoam, OpeningsThatPoseNoFlowAreWarnedOf)
+{
+    const TempDir tmp;
+    const auto dir = make_case(tmp, "tube",
+                               "[input]\nphantom = \"tube\"\nvoxel_size = 0.75\n[[openings]]\nname = \"out\"\n"
+                               "type = \"outlet\"\npoint = [0, 0, 12]\nnormal = [0, 0, 1]\n");
+    const CommandResult r = run_scalemesh({"run", dir.string()});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / "0"));
+    const std::string warning = "scalemesh: warning: the case has 1 opening but no inlet, so no flow is posed: 0/U and "
+                                "0/p are not written";
+    EXPECT_NE(r.err.find(warning), std::string::npos) << r.err;
+    EXPECT_LT(r.err.find(warning), r.err.find("\n  surface ")) << "before the summary";
+    const nlohmann::json report = nlohmann::json::parse(slurp(dir / "report.json"));
+    ASSERT_EQ(report["warnings"].size(), 1u);
+    const CommandResult strict = run_scalemesh({"run", dir.string(), "-q", "--strict"});
+    EXPECT_EQ(strict.exit_code, 6) << strict.err;
+    EXPECT_NE(strict.err.find("the run warned 1 time about its input (--strict)"), std::string::npos) << strict.err;
+}
+
 TEST(CliOpenFoam, AllrunChecksTheMeshAndRunsTheFlow)
 {
     const TempDir tmp;

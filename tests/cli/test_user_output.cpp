@@ -181,6 +181,13 @@ TEST(CliOutput, RunWritesTheQualityHistogramsAsAPng)
     ASSERT_EQ(run_scalemesh({"run", dir.string(), "-q"}).exit_code, 0);
     const auto files = report_of(dir)["files"].get<std::vector<std::string>>();
     EXPECT_NE(std::find(files.begin(), files.end(), "quality.png"), files.end());
+    // The remeshed edges against their target (short of it on this small,
+    // curved sphere), not the layers field that came last among the
+    // surface's fields (whole numbers 0 to 3, -1 at openings).
+    const nlohmann::json ratio = report_of(dir)["remeshing"]["edge_length_ratio"];
+    EXPECT_GT(ratio["min"].get<double>(), 0.0) << ratio;
+    EXPECT_LT(ratio["max"].get<double>(), 2.0) << ratio;
+    EXPECT_NE(ratio["median"].get<double>(), std::round(ratio["median"].get<double>())) << ratio;
     const Png png = decode_png(dir / "quality.png");
     EXPECT_EQ(png.width, 900);
     EXPECT_EQ(png.height, 540);

@@ -90,6 +90,34 @@ TEST(HostileInput, BallCutByEveryImageFace)
     RecordedOutcome outcome("a ball of radius 8 voxels in a 12^3 image (0.5 mm voxels), cut by all six faces");
     const TempDir dir;
     expect_meshed(run_image(dir, {12, 12, 12}, 0.5, ball({6, 6, 6}, 8)), dir, outcome);
+    // Meshed closed at each face, and each face warned of with the area the
+    // ball touches there: 6 voxels from its centre at the low sides, a disc
+    // of radius sqrt(8^2 - 6^2) = 5.3 voxels (89 voxels of 0.25 mm^2), 5 at
+    // the high sides (radius 6.2, 115 voxels).
+    const nlohmann::json warnings = report(dir)["warnings"];
+    ASSERT_EQ(warnings.size(), 6u) << warnings;
+    for (const char* side : {"x-", "x+", "y-", "y+", "z-", "z+"}) {
+        const bool low = side[1] == '-';
+        const std::string expected = std::string("the segmentation touches the image's ") + side + " side over " +
+                                     (low ? "22.25 mm^2 (89" : "28.75 mm^2 (115") +
+                                     " voxels) and is meshed closed there; if the vessel runs on beyond the image, "
+                                     "add an opening with border = \"" + side + "\"";
+        EXPECT_NE(std::find(warnings.begin(), warnings.end(), expected), warnings.end()) << expected << "\n" << warnings;
+    }
+    // With border openings on z- and z+, only the other four are warned of.
+    const TempDir opened;
+    expect_meshed(run_image(opened, {12, 12, 12}, 0.5, ball({6, 6, 6}, 8),
+                            "[[openings]]\nname = \"in\"\ntype = \"inlet\"\nborder = \"z-\"\n"
+                            "[[openings]]\nname = \"out\"\ntype = \"outlet\"\nborder = \"z+\"\n"),
+                  opened, outcome, "z- and z+ opened");
+    int touching = 0;
+    const nlohmann::json opened_warnings = report(opened)["warnings"];
+    for (const auto& w : opened_warnings) {
+        const std::string text = w.get<std::string>();
+        touching += text.find("the segmentation touches") != std::string::npos;
+        EXPECT_EQ(text.find("side z"), std::string::npos) << text;
+    }
+    EXPECT_EQ(touching, 4) << opened_warnings;
 }
 
 TEST(HostileInput, LabelFillingTheImageWithBorderOpenings)

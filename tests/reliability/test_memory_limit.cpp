@@ -26,8 +26,17 @@ TEST(MemoryLimit, SizesParse)
     EXPECT_EQ(parse_memory_size("1.5 GiB", "--max-memory"), 3LL << 29);
     EXPECT_EQ(parse_memory_size("300mb", "--max-memory"), 300LL << 20);
     EXPECT_EQ(parse_memory_size("2000000000", "--max-memory"), 2000000000LL);
-    for (const std::string bad : {"", "lots", "8X", "-1G", "0", "nanG", "1e30G"})
+    for (const std::string bad : {"", "lots", "8X", "-1G", "0", "nanG", "1e30G", "0.5", "1000K"})
         EXPECT_THROW(parse_memory_size(bad, "--max-memory"), InputError) << bad;
+    // A forgotten unit is named, not taken as no limit (0.5 bytes rounds to 0).
+    try {
+        parse_memory_size("0.5", "--max-memory");
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("--max-memory '0.5' is 0 bytes, less than any run needs. Hint: a bare "
+                                             "number is bytes: give a unit, e.g. 8G or 512M"),
+                  std::string::npos)
+            << e.what();
+    }
     EXPECT_GT(physical_memory(), 0);
 }
 
@@ -52,6 +61,20 @@ TEST(MemoryLimit, BoundBelowTheVolumeStageIsRefusedBeforeIt)
     const CommandResult r = run_case_limited(dir.path, 120, {"--max-memory", "150M"});
     expect_refused(r, dir.path, {"image.mha"});
     EXPECT_NE(r.err.find("volume mesh points for M = 7 layers"), std::string::npos) << r.err;
+}
+
+// Sizes far beyond any machine: the estimate is still a number with its
+// unit (not an overflowed count), and the hint points the right way.
+TEST(MemoryLimit, AnAbsurdlyFineSizingIsRefusedInPlainFigures)
+{
+    const TempDir dir;
+    write_plate(dir);
+    write_case(dir.path, "[input]\nfile = \"image.mha\"\n[sizing]\nL_min = \"1e-5 mm\"\nL_max = \"1e-5 mm\"\n");
+    const CommandResult r = run_case_limited(dir.path, 120);
+    expect_refused(r, dir.path, {"image.mha"});
+    EXPECT_EQ(r.err.find("-9223372036854775808"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(" TiB of memory (about "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("a larger [sizing] L_max or L_min"), std::string::npos) << r.err;
 }
 
 TEST(MemoryLimit, UnreadableBoundIsRefused)
