@@ -25,7 +25,7 @@ public:
     void add(const std::string& relative, const std::string& text)
     {
         const std::filesystem::path path = dir_ / relative;
-        outputs_.push_back(std::make_unique<AtomicOutput>(path));
+        outputs_.push_back(std::make_unique<AtomicOutput>(path, true));
         std::ofstream out(outputs_.back()->temporary());
         out << text << "\n// ************************************************************************* //\n";
         if (!out.flush()) throw IoError(path.string(), "cannot write the file");
@@ -35,7 +35,7 @@ public:
     void add_script(const std::string& relative, const std::string& text)
     {
         const std::filesystem::path path = dir_ / relative;
-        outputs_.push_back(std::make_unique<AtomicOutput>(path));
+        outputs_.push_back(std::make_unique<AtomicOutput>(path, true));
         {
             std::ofstream out(outputs_.back()->temporary());
             out << text;

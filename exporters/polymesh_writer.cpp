@@ -640,7 +640,7 @@ PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& 
     const bool binary = options.binary;
     std::vector<std::unique_ptr<AtomicOutput>> outputs;
     auto open = [&](const char* name) {
-        outputs.push_back(std::make_unique<AtomicOutput>(dir / name));
+        outputs.push_back(std::make_unique<AtomicOutput>(dir / name, true));
         return FoamFile(outputs.back()->temporary(), binary);
     };
     std::ostringstream note;

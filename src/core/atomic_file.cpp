@@ -78,14 +78,15 @@ static_assert(std::atomic<int>::is_always_lock_free, "read from signal handlers"
 
 } // namespace
 
-AtomicOutput::AtomicOutput(std::filesystem::path path) : path_(std::move(path))
+AtomicOutput::AtomicOutput(std::filesystem::path path, bool make_directories) : path_(std::move(path))
 {
     // The directories the output needs, made here so that an output that
     // never comes takes the ones it made along (never one that was there).
     std::vector<std::filesystem::path> missing;
     std::error_code ec;
     for (std::filesystem::path dir = std::filesystem::absolute(path_, ec).parent_path();
-         !dir.empty() && !std::filesystem::exists(dir, ec) && dir != dir.parent_path(); dir = dir.parent_path())
+         make_directories && !dir.empty() && !std::filesystem::exists(dir, ec) && dir != dir.parent_path();
+         dir = dir.parent_path())
         missing.push_back(dir);
     for (auto dir = missing.rbegin(); dir != missing.rend(); ++dir) {
         if (!std::filesystem::create_directory(*dir, ec) && ec)

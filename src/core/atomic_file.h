@@ -13,8 +13,12 @@ namespace scalemesh {
 class AtomicOutput {
 public:
     // The temporary name keeps the extension of `path`, since some writers
-    // (the Gmsh SDK) choose the format from it.
-    explicit AtomicOutput(std::filesystem::path path);
+    // (the Gmsh SDK) choose the format from it. With make_directories, the
+    // missing directories on the way to `path` are made (IoError when that
+    // fails), and removed again, where empty, when the output never comes
+    // (the destructor without a commit, or remove_pending_outputs); without
+    // it, a missing directory is the writer's IoError.
+    explicit AtomicOutput(std::filesystem::path path, bool make_directories = false);
     ~AtomicOutput(); // removes the temporary file unless committed
     AtomicOutput(const AtomicOutput&) = delete;
     AtomicOutput& operator=(const AtomicOutput&) = delete;
@@ -53,8 +57,9 @@ bool defer_signal_during_commit(int signal) noexcept;
 // false) and returns instead of ending the process: commits may start again.
 void signal_handled() noexcept;
 
-// Removes every temporary file still pending; safe to call from a signal
-// handler (uses only unlink on pre-built names).
+// Removes every temporary file still pending, and the directories made for
+// them that are empty; safe to call from a signal handler (uses only unlink
+// and rmdir on pre-built names).
 void remove_pending_outputs() noexcept;
 
 } // namespace scalemesh

@@ -144,7 +144,7 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
 
     const Section input(root["input"].as_table(), "input", source,
                         {"phantom", "file", "voxel_size", "noise", "seed", "grid", "iso", "connectivity", "labels",
-                         "threshold", "level_set", "units"});
+                         "threshold", "level_set", "units", "keep"});
     config.phantom = input.get<std::string>("phantom").value_or("");
     config.file = input.get<std::string>("file").value_or("");
     if (config.phantom.empty() == config.file.empty())
@@ -176,6 +176,15 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
     if (int(!config.labels.empty()) + int(config.threshold.has_value()) + int(config.level_set) > 1)
         throw InputError(source + ": [input] labels, threshold and level_set exclude each other",
                          "give labels for a label map, threshold for an intensity image, or level_set = true");
+    const std::string keep = input.get<std::string>("keep").value_or("all");
+    if (keep != "all" && keep != "largest")
+        throw InputError(input.where("keep") + " = \"" + keep + "\" is not valid",
+                         "choose \"all\" (every region of the segmentation, the default) or \"largest\" (the region "
+                         "of the most voxels; stray islands are dropped)");
+    if (keep == "largest" && (config.level_set || is_surface_file(config.file)))
+        throw InputError(input.where("keep") + " = \"largest\" applies to label images and phantoms",
+                         "a level set or a surface file keeps its regions; remove the key");
+    config.keep_largest = keep == "largest";
     if (input.has("iso")) config.iso = input.number("iso", 0, -1e30, 1e30);
     const int64_t connectivity = input.get<int64_t>("connectivity").value_or(6);
     if (connectivity != 6 && connectivity != 26)

@@ -37,6 +37,8 @@ struct CaseConfig {
     std::vector<int> labels;        // medical images: label values that are inside; empty: any nonzero voxel
     std::optional<double> threshold; // intensity images: inside where value > threshold
     bool level_set = false;         // medical images: the values are a signed distance, negative inside
+    bool keep_largest = false;      // [input] keep = "largest": only the face-connected region of the most inside
+                                    // voxels is meshed (stray islands of a segmentation dropped)
     std::optional<double> iso;      // default 0 for level sets, 0.5 for labels
     InsideConnectivity connectivity = InsideConnectivity::Six;
     std::string units = "mm";       // surface files only: the unit of their coordinates, "mm", "cm", "m" or "um"

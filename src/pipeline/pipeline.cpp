@@ -11,6 +11,7 @@
 #include "smoothing/volume_conserving_smoothing.h"
 #include "volume/quality.h"
 
+#include <openvdb/tools/LevelSetUtil.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
@@ -510,6 +511,19 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
                                  "give an image (.vdb, .nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd, .vti) or a "
                                  "surface (.stl, .ply, .obj, .vtp, .msh)");
             }
+            if (config.keep_largest && !is_level_set(*grid)) {
+                // Face-connected regions of inside voxels, largest first.
+                std::vector<openvdb::FloatGrid::Ptr> regions;
+                openvdb::tools::segmentActiveVoxels(*grid, regions);
+                if (regions.size() > 1) {
+                    run.islands_dropped = static_cast<int64_t>(regions.size() - 1);
+                    for (size_t r = 1; r < regions.size(); ++r)
+                        run.island_voxels += static_cast<int64_t>(regions[r]->activeVoxelCount());
+                    openvdb::FloatGrid::Ptr kept = grid->copyWithNewTree(); // transform and metadata kept
+                    kept->setTree(regions.front()->treePtr());
+                    grid = kept;
+                }
+            }
             const openvdb::math::Transform& transform = grid->transform();
             const openvdb::Vec3d origin = transform.indexToWorld(openvdb::Vec3d(0, 0, 0));
             frame.origin = {origin.x(), origin.y(), origin.z()};
@@ -531,8 +545,13 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
             } else {
                 run.inside_voxels = static_cast<int64_t>(grid->activeVoxelCount());
                 if (frame.size[0] > 0) warn_of_border_contact(*grid, frame, config, run);
+                std::string islands;
+                if (run.islands_dropped > 0)
+                    islands = "; the largest region kept, " + std::to_string(run.islands_dropped) + " other" +
+                              (run.islands_dropped == 1 ? "" : "s") + " of " + std::to_string(run.island_voxels) +
+                              " voxels dropped (keep = \"largest\")";
                 clock.done(std::to_string(grid->activeVoxelCount()) + " inside voxels of " +
-                           std::to_string(run.voxel_width) + " mm");
+                           std::to_string(run.voxel_width) + " mm" + islands);
             }
         }
         StageClock clock(run, listener, "isosurface");

@@ -36,6 +36,8 @@ struct PipelineRun {
     double voxel_width = 0;       // mm: the smallest voxel spacing, or for surface
                                   // input the mean edge length of its triangles
     int64_t inside_voxels = -1;   // active voxels of the label (phantoms and label grids)
+    int64_t islands_dropped = 0;  // keep = "largest": face-connected regions of inside voxels left out
+    int64_t island_voxels = 0;    // and their voxels
     SurfaceFacts isosurface;      // facts of the surface before smoothing
     SurfaceMesh surface;          // after smoothing, and cut and capped at the openings
     std::vector<Cap> caps;        // the openings' caps: cap i is surface patch i + 1

@@ -217,6 +217,8 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
     report["scalemesh_version"] = SCALEMESH_VERSION;
     report["input"] = {{"source", run.input}, {"checksum_fnv1a64", run.input_checksum}, {"voxel_width_mm", run.voxel_width}};
     if (run.inside_voxels >= 0) report["input"]["inside_voxels"] = run.inside_voxels;
+    if (config.keep_largest)
+        report["input"]["dropped_regions"] = {{"regions", run.islands_dropped}, {"voxels", run.island_voxels}};
     if (!run.open_ends.empty()) {
         nlohmann::json ends = nlohmann::json::array();
         for (const OpenEnd& end : run.open_ends)

@@ -76,6 +76,18 @@ TEST(HostileInput, StrayVoxelBesideABall)
     expect_meshed(run_image(dir, {20, 15, 15}, 0.5, [&](int i, int j, int k) { return a(i, j, k) || (i == 17 && j == 7 && k == 7); }),
                   dir, outcome);
     EXPECT_EQ(report(dir)["remeshed_surface"]["components"], 2);
+
+    // keep = "largest" drops the stray voxel on purpose, and says so.
+    const TempDir largest;
+    expect_meshed(run_image(largest, {20, 15, 15}, 0.5,
+                            [&](int i, int j, int k) { return a(i, j, k) || (i == 17 && j == 7 && k == 7); },
+                            "keep = \"largest\"\n"),
+                  largest, outcome, "keep = \"largest\"");
+    EXPECT_EQ(report(largest)["remeshed_surface"]["components"], 1);
+    EXPECT_EQ(report(largest)["input"]["dropped_regions"]["regions"], 1);
+    EXPECT_EQ(report(largest)["input"]["dropped_regions"]["voxels"], 1);
+    EXPECT_EQ(report(largest)["input"]["inside_voxels"].get<int64_t>() + 1,
+              report(dir)["input"]["inside_voxels"].get<int64_t>());
 }
 
 TEST(HostileInput, LabelFillingTheWholeImage)
