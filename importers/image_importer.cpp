@@ -297,7 +297,13 @@ std::pair<std::string, std::optional<std::string>> metaimage_field(const std::st
     const std::string key = trim(line.substr(0, line.find_first_of("=:\r")));
     const size_t separator = line.find_first_of("=:");
     if (separator == std::string::npos) return {key, std::nullopt};
-    return {key, trim(line.substr(separator + 1))};
+    // MetaIO's MET_SkipToVal skips every '=', ':' and blank after the key, so
+    // "CompressedData: = True" is true to it (found by fuzzing: read as
+    // "= True" here, the compressed data went unchecked and MetaIO's inflate
+    // never ended).
+    const size_t value = line.find_first_not_of("=: \t\r", separator);
+    if (value == std::string::npos) return {key, std::string()};
+    return {key, trim(line.substr(value))};
 }
 
 // Checks of a MetaImage header that ITK 5.2's MetaIO does not make, up to the

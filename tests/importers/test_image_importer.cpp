@@ -743,6 +743,15 @@ TEST(ImageImporter, RefusesMalformedFiles)
     dictionary[data_at] = 'x'; // 0x78 0x20: deflate, FDICT set, a multiple of 31
     dictionary[data_at + 1] = ' ';
     expect_refused("dictionary.mha", dictionary, "preset zlib dictionary");
+    // MetaIO skips every '=', ':' and blank after a key: "CompressedData: =
+    // True" is compressed to it, and must be to the checks too (found by
+    // fuzzing, fuzz/regressions/metaimage: read as "= True" here, MetaIO's
+    // inflate of the dictionary stream never ended).
+    std::string separators = dictionary;
+    const size_t flag_at = separators.find("CompressedData = True");
+    ASSERT_NE(flag_at, std::string::npos);
+    separators.replace(flag_at, 21, "CompressedData: = True");
+    expect_refused("separators.mha", separators, "preset zlib dictionary");
 
     // Data in a pattern of slice files: MetaIO divides by the step, so a
     // missing or zero step was a division by zero (found by fuzzing). A
