@@ -96,6 +96,26 @@ Selection select_surfaces(const GmshModelOptions& options)
                                                              : " in physical surface '" + options.physical_group + "'"),
                          "build or merge a closed surface and mesh it in 2D (gmsh::model::mesh::generate(2))");
 
+    // A surface that bounds a volume already holding tets (the result of an
+    // earlier call, or the host's own 3D mesh) is refused: meshed again, that
+    // mesh's boundary would lie on top of the input surface, a surface that
+    // overlaps itself.
+    for (int entity : selection.entities) {
+        std::vector<int> up, down;
+        gmsh::model::getAdjacencies(2, entity, up, down);
+        for (int volume : up) {
+            std::vector<int> types;
+            gmsh::model::mesh::getElementTypes(types, 3, volume);
+            if (!types.empty())
+                throw InputError(entity_name(entity) + " bounds volume entity " + std::to_string(volume) +
+                                     ", which already holds a volume mesh (an earlier mesh_gmsh_model result, or "
+                                     "the model's own 3D mesh): meshing its boundary again would overlap the input "
+                                     "surface",
+                                 "select the input surface with physical_group, or remove the volume first "
+                                 "(gmsh::model::removeEntities({{3, " + std::to_string(volume) +
+                                     "}}, true)) or start from a new model");
+        }
+    }
     for (int entity : selection.entities) {
         std::vector<int> physical;
         gmsh::model::getPhysicalGroupsForEntity(2, entity, physical);

@@ -13,6 +13,7 @@ import json
 import os
 import subprocess
 import tempfile
+import time
 import unittest
 from collections import Counter
 
@@ -276,6 +277,20 @@ class TestErrors(GmshSession):
             scalemesh.mesh_surface(points, triangles.astype(float))
         with self.assertRaisesRegex(ValueError, "no physical surface named 'vessel'.*wall"):
             scalemesh.mesh_gmsh_model("vessel")
+
+    def test_a_second_call_on_the_meshed_model_is_refused(self):
+        # The model now holds the first result: its boundary surfaces would be
+        # meshed again on top of the input (a surface that overlaps itself).
+        build_tube()
+        first = scalemesh.mesh_gmsh_model(threads=2)
+        start = time.monotonic()
+        with self.assertRaisesRegex(ValueError, f"bounds volume entity {first['volume']}, which already holds a "
+                                                "volume mesh.*physical_group"):
+            scalemesh.mesh_gmsh_model(threads=2)
+        self.assertLess(time.monotonic() - start, 10)
+        # The result is left as it was.
+        tet_tags, _ = gmsh.model.mesh.getElementsByType(4, first["volume"])
+        self.assertEqual(len(tet_tags), len(first["tets"]))
 
     def test_a_model_without_a_2d_mesh_is_refused(self):
         gmsh.model.add("empty")
