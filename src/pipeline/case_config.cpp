@@ -272,6 +272,9 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
             if (!names.insert(spec.name).second)
                 throw InputError(opening.where("name") + ": two openings are named '" + spec.name + "'",
                                  "give every opening its own name");
+            if (!(*table)["type"])
+                throw InputError(opening.where("type") + " is missing: opening '" + spec.name + "' needs a type",
+                                 "add type = \"inlet\" or type = \"outlet\" (the flow enters at inlets)");
             const std::string type = opening.get<std::string>("type").value_or("");
             if (type != "inlet" && type != "outlet")
                 throw InputError(opening.where("type") + " = \"" + type + "\" is not an opening type",

@@ -628,6 +628,23 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
         throw InputError("L_min = " + std::to_string(run.L_min) + " mm is above L_max = " + std::to_string(run.L_max) +
                              " mm",
                          "lower [sizing] L_min or raise L_max");
+    {
+        // d >= L_min wherever the surface is not close to itself outside, so
+        // the remeshed edges are at least K/M L_min long: when that is longer
+        // than the whole surface, remeshing collapses it (caps vanish first).
+        Vec3 lo, hi;
+        bounding_box(surface, lo, hi);
+        const double across = distance(lo, hi);
+        const double shortest_edge = config.K / config.M * run.L_min;
+        if (options.remesh && shortest_edge > across) {
+            std::ostringstream what;
+            what << "L_min = " << run.L_min << " mm asks for surface edges of at least K/M L_min = " << shortest_edge
+                 << " mm, longer than the whole surface is across (" << across
+                 << " mm, its bounding box's diagonal): remeshing would collapse it";
+            throw InputError(what.str(), "give [sizing] L_min below the narrowest vessel diameter to be resolved "
+                                         "(L_min is the smallest diameter that gets M layers)");
+        }
+    }
 
     // Resource limits: the estimated peak memory is checked before each heavy
     // stage, so that a case too large stops with advice rather than being

@@ -197,6 +197,9 @@ TEST(Cli, RefusesBadCaseFilesWithoutWritingOutput)
     expect_refused(run_scalemesh({"run", tmp.path.string()}), 2, "meshing");
     write_case("[input]\nphantom = \"tube\"\nvoxel_size = 1e-10\n");
     expect_refused(run_scalemesh({"run", tmp.path.string()}), 2, "voxel_size");
+    write_case("[input]\nphantom = \"tube\"\n[[openings]]\nname = \"inlet\"\npoint = [0, 0, -12]\nnormal = [0, 0, -1]\n");
+    expect_refused(run_scalemesh({"run", tmp.path.string()}), 2,
+                   "type is missing: opening 'inlet' needs a type. Hint: add type = \"inlet\" or type = \"outlet\"");
     write_case("[input\nphantom = \"tube\"\n");
     expect_refused(run_scalemesh({"run", tmp.path.string()}), 2, "scalemesh.toml:1");
     EXPECT_EQ(tmp.files(), std::vector<std::string>{"scalemesh.toml"});

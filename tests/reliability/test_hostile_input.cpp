@@ -179,6 +179,32 @@ TEST(HostileInput, VoxelsOfAMetre)
                      std::pow(1024.0, 3) * report(unit)["volume"]["volume_mm3"].get<double>());
 }
 
+TEST(HostileInput, LMinBeyondTheWholeSurfaceIsRefused)
+{
+    RecordedOutcome outcome("the tube phantom (6 mm across, 30 mm long) with its two openings and L_min = L_max = 1e6 mm; "
+                            "and, as a control, L_min = L_max = 30 mm");
+    const std::string openings = "[[openings]]\nname = \"inlet\"\ntype = \"inlet\"\npoint = [0, 0, -12]\nnormal = [0, 0, -1]\n"
+                                 "[[openings]]\nname = \"outlet\"\ntype = \"outlet\"\npoint = [0, 0, 12]\nnormal = [0, 0, 1]\n";
+    const TempDir dir, control;
+    write_case(dir.path, "[input]\nphantom = \"tube\"\nvoxel_size = 0.5\n[sizing]\nL_min = 1e6\nL_max = 1e6\n" +
+                             openings);
+    const CommandResult r = run_case_limited(dir.path, kTimeLimit);
+    outcome.add(describe_unmeshed(r), "1e6 mm");
+    // It said "cap 'inlet' has no faces left", after remeshing had collapsed the surface.
+    expect_refused(r, dir.path, {});
+    EXPECT_NE(r.err.find("L_min = 1e+06 mm asks for surface edges of at least K/M L_min = 600000 mm, longer than the "
+                         "whole surface is across"),
+              std::string::npos)
+        << r.err;
+    EXPECT_NE(r.err.find("below the narrowest vessel diameter"), std::string::npos) << r.err;
+    // An L_min below the surface's size runs, and warns of the layers it misses.
+    write_case(control.path, "[input]\nphantom = \"tube\"\nvoxel_size = 0.5\n[sizing]\nL_min = 30\nL_max = 30\n" +
+                                 openings);
+    const CommandResult c = run_case_limited(control.path, kTimeLimit);
+    expect_meshed(c, control, outcome, "30 mm");
+    EXPECT_NE(report(control)["warnings"].dump().find("layers"), std::string::npos) << report(control)["warnings"].dump();
+}
+
 TEST(HostileInput, HundredSeparateComponents)
 {
     RecordedOutcome outcome("100 balls of radius 2 voxels in a 30 x 30 x 24 image of 0.5 mm voxels");
