@@ -327,6 +327,7 @@ private:
                 const Level L = level(k);
                 if (std::find(L.seed.begin(), L.seed.end(), -2) != L.seed.end()) {
                     last = std::max(1, k - 1);
+                    report.joined = true;
                     break;
                 }
                 std::vector<double> per_seed(seeds, 0.0);
@@ -376,10 +377,14 @@ private:
                                "; it gets no cap and stays a dead end of the lumen. If it carries flow, give it "
                                "its own opening (a clip plane) or extend the segmentation to the image face");
         if (border.automatic && !border.stable)
-            warnings.push_back(who + ": the cross-section kept shrinking towards the image face over " +
-                               std::to_string(BorderRule::search_depth) +
-                               " voxels (or two of its pieces join before); cut at the deepest plane searched, " +
-                               number(border.inset) + " mm inside. Give inset = \"N voxels\" to choose the plane");
+            warnings.push_back(
+                who + ": the cross-section kept shrinking towards the image face" +
+                (border.joined ? " until two of its pieces join, " + number(border.inset / border.voxel + 1) +
+                                     " voxels inside; cut at the last plane before that, "
+                               : " over the " + std::to_string(BorderRule::search_depth) +
+                                     " voxels searched; cut at the deepest of them, ") +
+                number(border.inset) + " mm (" + number(border.inset / border.voxel) +
+                " voxels) inside. Give inset = \"N voxels\" to choose the plane");
     }
 
     // The crossings of `plane` on the input surface, the ones this opening

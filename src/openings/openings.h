@@ -111,6 +111,7 @@ struct BorderCut {
     double voxel = 0;       // mm, the voxel width along the side's axis
     bool automatic = false; // the inset was chosen by BorderRule
     bool stable = true;     // automatic: some plane of the search met the rule
+    bool joined = false;    // automatic: the search stopped where two pieces of the cross-section join
     bool face_known = false; // ImageFrame::size was given; else distances are from the outermost point
     std::vector<ShortPiece> short_pieces;
 };

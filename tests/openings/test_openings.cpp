@@ -421,6 +421,88 @@ TEST(BorderOpenings, TaperingPiecesEachGetAFullCapAndAShortPieceIsReported)
     EXPECT_NEAR(old.borders[0].inset, 2 * kComb_h, 1e-12);
 }
 
+// A cone whose cross-section shrinks towards the image face all the way:
+// the automatic inset never settles, and the warning says where it cut.
+TEST(BorderOpenings, AConeShrinkingToTheFaceIsCutAtTheDeepestPlaneSearchedAndSaysSo)
+{
+    constexpr int size[3] = {26, 26, 30};
+    openvdb::initialize();
+    auto grid = openvdb::FloatGrid::create(0.0f);
+    grid->setTransform(openvdb::math::Transform::createLinearTransform(kComb_h));
+    grid->setName("label");
+    grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+    auto access = grid->getAccessor();
+    for (int i = 0; i < size[0]; ++i)
+        for (int j = 0; j < size[1]; ++j)
+            for (int k = 15; k < size[2]; ++k)
+                if (std::hypot(i - 13, j - 13) < 2 + 0.45 * (size[2] - 1 - k)) access.setValue(openvdb::Coord(i, j, k), 1.0f);
+    SurfaceMesh cone = marching_cubes(*grid);
+    smooth_volume_conserving(cone, {.sweeps = 10, .omega = 1.0, .max_displacement = 0.5 * kComb_h});
+    ImageFrame frame;
+    for (int k = 0; k < 3; ++k) {
+        frame.axis[k] = Vec3{0, 0, 0};
+        frame.axis[k][k] = kComb_h;
+        frame.size[k] = size[k];
+    }
+    const CappedSurface capped = cut_and_cap(cone, {border_opening("outlet", OpeningType::Outlet, "z+")}, frame);
+    ASSERT_EQ(capped.borders.size(), 1u);
+    const BorderCut& outlet = capped.borders[0];
+    EXPECT_TRUE(outlet.automatic);
+    EXPECT_FALSE(outlet.stable);
+    EXPECT_FALSE(outlet.joined);
+    EXPECT_NEAR(outlet.inset, BorderRule::search_depth * kComb_h, 1e-9);
+    ASSERT_EQ(capped.warnings.size(), 1u);
+    // It said "over 10 voxels (or two of its pieces join before)" whatever the search met.
+    EXPECT_NE(capped.warnings[0].find("opening 'outlet' (border z+): the cross-section kept shrinking towards the image "
+                                      "face over the 10 voxels searched; cut at the deepest of them, 5 mm (10 voxels) "
+                                      "inside. Give inset"),
+              std::string::npos)
+        << capped.warnings[0];
+}
+
+// Two cones that reach the face, each shrinking towards it, and join about
+// 7 voxels inside it: the search stops at the last plane before they join,
+// and the warning says so.
+TEST(BorderOpenings, TwoConesJoiningNearTheFaceAreCutBeforeTheJoinAndSaySo)
+{
+    constexpr int size[3] = {26, 26, 30};
+    openvdb::initialize();
+    auto grid = openvdb::FloatGrid::create(0.0f);
+    grid->setTransform(openvdb::math::Transform::createLinearTransform(kComb_h));
+    grid->setName("label");
+    grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+    auto access = grid->getAccessor();
+    for (int i = 0; i < size[0]; ++i)
+        for (int j = 0; j < size[1]; ++j)
+            for (int k = 18; k < size[2]; ++k) {
+                const double r = 2 + 0.45 * (size[2] - 1 - k); // they widen into each other, 7 voxels in
+                if (std::hypot(i - 8, j - 13) < r || std::hypot(i - 18, j - 13) < r)
+                    access.setValue(openvdb::Coord(i, j, k), 1.0f);
+            }
+    SurfaceMesh joined = marching_cubes(*grid);
+    smooth_volume_conserving(joined, {.sweeps = 10, .omega = 1.0, .max_displacement = 0.5 * kComb_h});
+    ImageFrame frame;
+    for (int k = 0; k < 3; ++k) {
+        frame.axis[k] = Vec3{0, 0, 0};
+        frame.axis[k][k] = kComb_h;
+        frame.size[k] = size[k];
+    }
+    const CappedSurface capped = cut_and_cap(joined, {border_opening("outlet", OpeningType::Outlet, "z+")}, frame);
+    ASSERT_EQ(capped.borders.size(), 1u);
+    const BorderCut& outlet = capped.borders[0];
+    EXPECT_TRUE(outlet.automatic);
+    EXPECT_TRUE(outlet.joined);
+    EXPECT_LT(outlet.inset, BorderRule::search_depth * kComb_h);
+    EXPECT_EQ(capped.caps.size(), 2u);
+    std::string all;
+    for (const std::string& w : capped.warnings) all += w + "\n";
+    EXPECT_NE(all.find("opening 'outlet' (border z+): the cross-section kept shrinking towards the image face until two "
+                       "of its pieces join, "),
+              std::string::npos)
+        << all;
+    EXPECT_NE(all.find(" voxels inside; cut at the last plane before that, "), std::string::npos) << all;
+}
+
 TEST(BorderOpenings, WithoutTaperTheAutomaticInsetStaysNearTheFace)
 {
     const SurfaceMesh comb = comb_surface(false);
