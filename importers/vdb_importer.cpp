@@ -10,6 +10,7 @@
 #include <array>
 #include <bit>
 #include <cctype>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <limits>
@@ -573,6 +574,23 @@ openvdb::FloatGrid::Ptr read_vdb(const std::filesystem::path& path, const VdbImp
     if (!grid->transform().isLinear())
         throw InputError("grid '" + grid->getName() + "' has a non-linear transform",
                          "resample it onto a linear (affine) transform");
+    // A NaN is neither inside nor outside at any iso value: marching cubes
+    // would take it as outside, a one-voxel cavity nobody asked for.
+    int64_t nonfinite = 0;
+    openvdb::Coord first;
+    if (!std::isfinite(grid->background()))
+        throw InputError("grid '" + grid->getName() + "' in " + path.string() + " has a NaN or infinite background value",
+                         "fix the grid: every value needs to be finite");
+    for (auto it = grid->cbeginValueAll(); it; ++it)
+        if (!std::isfinite(*it)) {
+            if (nonfinite == 0) first = it.getCoord();
+            nonfinite += static_cast<int64_t>(it.getVoxelCount());
+        }
+    if (nonfinite > 0)
+        throw InputError("grid '" + grid->getName() + "' in " + path.string() + " has " + std::to_string(nonfinite) +
+                             " NaN or infinite voxel values, the first at voxel (" + std::to_string(first.x()) + ", " +
+                             std::to_string(first.y()) + ", " + std::to_string(first.z()) + ")",
+                         "fix the grid: every voxel needs a finite value");
     if (grid->tree().activeVoxelCount() == 0 && grid->tree().activeTileCount() == 0 &&
         grid->getGridClass() != openvdb::GRID_LEVEL_SET)
         throw InputError("grid '" + grid->getName() + "' in " + path.string() + " is empty (no active voxels)",

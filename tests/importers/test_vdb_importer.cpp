@@ -12,7 +12,9 @@
 #include <gtest/gtest.h>
 #include <openvdb/io/File.h>
 
+#include <cmath>
 #include <cstring>
+#include <limits>
 #include <fstream>
 #include <random>
 
@@ -147,6 +149,32 @@ void expect_refused_as(const std::filesystem::path& file, const std::string& byt
 // OpenVDB 10 trusts the lengths and offsets in a file: a grid name of length
 // 2^31 made it allocate and clear 2 GB (found by fuzzing). read_vdb walks the
 // header, the descriptors and each grid's metadata first.
+// A NaN voxel would be outside at any iso value: a cavity of one voxel that
+// nobody segmented. It is refused, named by its voxel, active or not.
+TEST(VdbImporter, RefusesNaNAndInfiniteValues)
+{
+    const TempDir s;
+    for (const bool active : {true, false}) {
+        const auto grid = voxelize(*make_shape("sphere", 0.5), {.voxel_size = 0.5});
+        const openvdb::CoordBBox box = grid->evalActiveVoxelBoundingBox();
+        const openvdb::Coord centre = (box.min() + box.max()) >> 1;
+        if (active)
+            grid->tree().setValueOn(centre, std::nanf(""));
+        else
+            grid->tree().setValueOff(centre, std::numeric_limits<float>::infinity());
+        write_vdb(*grid, s.path / "nan.vdb");
+        try {
+            read_vdb(s.path / "nan.vdb");
+            ADD_FAILURE() << "a grid with a NaN or infinite value was read";
+        } catch (const InputError& e) {
+            const std::string expected = "has 1 NaN or infinite voxel values, the first at voxel (" +
+                                         std::to_string(centre.x()) + ", " + std::to_string(centre.y()) + ", " +
+                                         std::to_string(centre.z()) + ")";
+            EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+        }
+    }
+}
+
 TEST(VdbImporter, RefusesLengthsAndOffsetsBeyondTheFile)
 {
     const TempDir s;
