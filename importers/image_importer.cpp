@@ -24,12 +24,14 @@
 #include <fstream>
 #include <iostream>
 #include <limits>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <set>
 #include <sstream>
 #include <string>
 #include <string_view>
+#include <type_traits>
 
 namespace scalemesh {
 
@@ -954,10 +956,40 @@ void check_params(const ImageImportParams& params)
 
 bool is_image_file(const std::filesystem::path& path) { return format_of(path).has_value(); }
 
-openvdb::FloatGrid::Ptr read_image(const std::filesystem::path& path, const ImageImportParams& params)
+namespace {
+
+// The distinct values of an image, up to ImageValues::kMost of them.
+template <typename T> ImageValues values_of(const T* values, int64_t count)
 {
-    openvdb::initialize();
-    check_params(params);
+    ImageValues out;
+    out.integer = std::is_integral_v<T>;
+    std::map<double, int64_t> seen;
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (int64_t i = 0; i < count; ++i) {
+        const auto v = static_cast<double>(values[i]);
+        if (!std::isfinite(v)) continue;
+        lo = std::min(lo, v), hi = std::max(hi, v);
+        if (!out.integer && v != std::floor(v)) out.many = true;
+        if (out.many) continue;
+        ++seen[v];
+        if (seen.size() > ImageValues::kMost) out.many = true;
+    }
+    out.min = lo, out.max = hi;
+    if (!out.many) {
+        out.counts.assign(seen.begin(), seen.end());
+        return out;
+    }
+    out.histogram.assign(256, 0);
+    const double width = hi > lo ? (hi - lo) / 256 : 1;
+    for (int64_t i = 0; i < count; ++i) {
+        const auto v = static_cast<double>(values[i]);
+        if (std::isfinite(v)) ++out.histogram[std::min<int64_t>(255, static_cast<int64_t>((v - lo) / width))];
+    }
+    return out;
+}
+
+RawImage read_raw(const std::filesystem::path& path, int64_t max_bytes)
+{
     const std::string name = path.string();
     const std::optional<Format> format = format_of(path);
     if (!format)
@@ -967,11 +999,46 @@ openvdb::FloatGrid::Ptr read_image(const std::filesystem::path& path, const Imag
     if (!std::filesystem::is_regular_file(path, ec)) throw IoError(name, "no such file; check the path");
     if (!std::ifstream(path, std::ios::binary))
         throw IoError(name, "cannot be opened for reading; check its permissions");
-
-    if (*format == Format::Vti) return voxels_to_grid(from_vti(read_vti_volume(path)), params, name);
-    if (*format == Format::Nifti) check_nifti(path, params.max_bytes);
+    if (*format == Format::Vti) return from_vti(read_vti_volume(path));
+    if (*format == Format::Nifti) check_nifti(path, max_bytes);
     if (*format == Format::MetaImage) check_metaimage(path);
-    return voxels_to_grid(read_with_itk(path, *format, params.max_bytes), params, name);
+    return read_with_itk(path, *format, max_bytes);
+}
+
+} // namespace
+
+ImageValues image_values(const std::filesystem::path& path, int64_t max_bytes)
+{
+    const RawImage image = read_raw(path, max_bytes);
+    const char* data = image.data.get();
+    const int64_t n = image.voxels();
+    using C = itk::IOComponentEnum;
+    switch (image.component) {
+    case C::UCHAR: return values_of(reinterpret_cast<const unsigned char*>(data), n);
+    case C::CHAR: return values_of(reinterpret_cast<const signed char*>(data), n);
+    case C::USHORT: return values_of(reinterpret_cast<const uint16_t*>(data), n);
+    case C::SHORT: return values_of(reinterpret_cast<const int16_t*>(data), n);
+    case C::UINT: return values_of(reinterpret_cast<const uint32_t*>(data), n);
+    case C::INT: return values_of(reinterpret_cast<const int32_t*>(data), n);
+    case C::ULONG: return values_of(reinterpret_cast<const unsigned long*>(data), n);
+    case C::LONG: return values_of(reinterpret_cast<const long*>(data), n);
+    case C::ULONGLONG: return values_of(reinterpret_cast<const unsigned long long*>(data), n);
+    case C::LONGLONG: return values_of(reinterpret_cast<const long long*>(data), n);
+    case C::FLOAT: return values_of(reinterpret_cast<const float*>(data), n);
+    case C::DOUBLE: return values_of(reinterpret_cast<const double*>(data), n);
+    default: break;
+    }
+    throw InputError(path.string() + " has voxels of type " +
+                         itk::ImageIOBase::GetComponentTypeAsString(image.component) + ", which is not supported",
+                     "convert the image to an integer or floating-point type");
+}
+
+openvdb::FloatGrid::Ptr read_image(const std::filesystem::path& path, const ImageImportParams& params)
+{
+    openvdb::initialize();
+    check_params(params);
+    return voxels_to_grid(read_raw(path, params.max_bytes), params, path.string());
 }
 
 } // namespace scalemesh
+

@@ -7,6 +7,7 @@
 
 #include <filesystem>
 #include <optional>
+#include <utility>
 #include <vector>
 
 namespace scalemesh {
@@ -73,6 +74,22 @@ struct ImageImportParams {
 // match its bytes (vti_importer.h), conflicting params, or no voxel inside
 // (listing up to 10 values present, or the value range).
 openvdb::FloatGrid::Ptr read_image(const std::filesystem::path& path, const ImageImportParams& params = {});
+
+// What the voxels of an image hold, for choosing how to read it (scalemesh
+// init): a label map has a few integer values, an intensity image many, a
+// level set negative and positive ones.
+struct ImageValues {
+    static constexpr size_t kMost = 64;       // distinct values counted at most
+    bool integer = false;                     // the voxel type is an integer type
+    bool many = false;                        // more than kMost distinct values, or a non-integer value
+    std::vector<std::pair<double, int64_t>> counts; // unless `many`: each value and its voxels, ascending
+    double min = 0, max = 0;                  // of the finite values
+    std::vector<int64_t> histogram;           // when `many`: voxels in each of 256 equal bins over [min, max]
+};
+
+// The values of the image at `path` (as read_image reads it, with the same
+// checks of the file and of `max_bytes`; NaN values are not counted).
+ImageValues image_values(const std::filesystem::path& path, int64_t max_bytes = 0);
 
 // True when the extension is one read_image reads (.nii, .nii.gz, .nrrd,
 // .nhdr, .mha, .mhd, .vti, any case).

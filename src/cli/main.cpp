@@ -13,6 +13,7 @@
 #include "importers/surface_importer.h"
 #include "importers/vdb_importer.h"
 #include "phantom/phantom.h"
+#include "pipeline/case_init.h"
 #include "pipeline/memory_estimate.h"
 #include "pipeline/run_case.h"
 #include "volume/quality.h"
@@ -23,6 +24,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <fstream>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -148,6 +150,18 @@ int main(int argc, char** argv)
                         "Memory the run may use, e.g. 8G or 512M (default: the machine's physical memory); a "
                         "case whose estimated peak is larger stops before the heavy stages");
 
+    // init
+    std::string init_dir, init_file;
+    bool init_force = false;
+    auto* init_cmd = app.add_subcommand("init", "Write a first case file for an image or a surface: how its voxels "
+                                                "become inside, its openings, its units, the defaults commented");
+    init_cmd->add_option("case", init_dir, "Case directory to write scalemesh.toml into (made if missing)")->required();
+    init_cmd->add_option("file", init_file,
+                         "Image (.vdb, .nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd, .vti) or surface (.stl, .ply, .obj, "
+                         ".vtp, .msh)")
+        ->required();
+    init_cmd->add_flag("--force", init_force, "Replace the case directory's scalemesh.toml");
+
     // check
     std::string check_mesh;
     auto* check_cmd = app.add_subcommand("check", "Quality report of a volume mesh (.msh): validity, aspect ratio, "
@@ -200,6 +214,25 @@ int main(int argc, char** argv)
                 run_pipeline(config, {.sizing = sizing, .remesh = remesh, .volume = false}, display.listener());
             write_surface(final_surface(run), surface_fields(run, config.K, config.M), surface_out);
             if (verbosity != Verbosity::Quiet) std::fprintf(stderr, "scalemesh: wrote %s\n", surface_out.c_str());
+        } else if (*init_cmd) {
+            const std::filesystem::path target = std::filesystem::path(init_dir) / "scalemesh.toml";
+            std::error_code ec;
+            if (std::filesystem::exists(target, ec) && !init_force)
+                throw InputError(target.string() + " exists already",
+                                 "give another case directory, or --force to replace it");
+            const InitialCase initial = initial_case(init_file, init_dir);
+            AtomicOutput out(target, true);
+            {
+                std::ofstream file(out.temporary());
+                file << initial.text;
+                if (!file.flush()) throw IoError(target.string(), "cannot write the case file");
+            }
+            out.commit();
+            if (verbosity != Verbosity::Quiet) {
+                for (const std::string& note : initial.notes) std::fprintf(stderr, "scalemesh: %s\n", note.c_str());
+                std::fprintf(stderr, "scalemesh: wrote %s; run it with: scalemesh run %s\n", target.c_str(),
+                             init_dir.c_str());
+            }
         } else if (*check_cmd) {
             if (extension_of(check_mesh) != ".msh")
                 throw InputError("cannot check '" + check_mesh + "': only Gmsh .msh volume meshes are read",

@@ -189,23 +189,38 @@ bool patch_name(const std::string& name)
 // The warning for a surface whose size is implausible for a vessel, an
 // airway or a heart in its declared unit, with the likely unit; empty when
 // it is plausible (0.5 mm to 2 m across).
-std::string units_warning(const SurfaceMesh& surface, const CaseConfig& config)
+struct Unit {
+    const char* name;
+    double to_mm;
+};
+constexpr Unit kUnits[] = {{"um", 1e-3}, {"mm", 1}, {"cm", 10}, {"m", 1000}};
+
+double surface_size(const SurfaceMesh& surface)
 {
     Vec3 lo, hi;
     bounding_box(surface, lo, hi);
-    const double size = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
-    if (size >= 0.5 && size <= 2000) return "";
-    struct Unit {
-        const char* name;
-        double to_mm;
-    };
-    const Unit units[] = {{"um", 1e-3}, {"mm", 1}, {"cm", 10}, {"m", 1000}};
-    // The unit that puts the size closest to 50 mm (on a log scale).
+    return std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+}
+
+// The unit that puts the size closest to 50 mm (on a log scale), when the
+// size (mm, read in config's unit) is outside 0.5 mm to 2 m.
+const Unit* likely_unit(double size, const CaseConfig& config)
+{
+    if (size >= 0.5 && size <= 2000) return nullptr;
     const double file_size = size / config.units_to_mm;
-    const Unit* likely = &units[0];
-    for (const Unit& u : units)
+    const Unit* likely = &kUnits[0];
+    for (const Unit& u : kUnits)
         if (std::abs(std::log(file_size * u.to_mm / 50)) < std::abs(std::log(file_size * likely->to_mm / 50)))
             likely = &u;
+    return likely;
+}
+
+std::string units_warning(const SurfaceMesh& surface, const CaseConfig& config)
+{
+    const double size = surface_size(surface);
+    const Unit* likely = likely_unit(size, config);
+    if (!likely) return "";
+    const double file_size = size / config.units_to_mm;
     char line[400];
     std::snprintf(line, sizeof line,
                   "the surface is %.4g mm across, implausible for an anatomy read in %s; if the file is in %s, "
@@ -309,9 +324,10 @@ void warn_of_border_contact(const openvdb::FloatGrid& grid, const ImageFrame& fr
         bool opened = false;
         for (const CaseConfig::Opening& opening : config.openings)
             opened = opened || (opening.spec.border && opening.spec.side == kSides[s]);
-        if (opened) continue;
         const int k = s / 2;
         const double face = norm(cross(frame.axis[(k + 1) % 3], frame.axis[(k + 2) % 3]));
+        run.border_contacts.push_back({kSides[s], face * static_cast<double>(touching[s]), touching[s], opened});
+        if (opened) continue;
         char line[400];
         std::snprintf(line, sizeof line,
                       "the segmentation touches the image's %s side over %.4g mm^2 (%lld voxels) and is meshed "
@@ -750,6 +766,12 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
 }
 
 } // namespace
+
+std::optional<std::string> likely_units(const SurfaceMesh& surface, const CaseConfig& config)
+{
+    const Unit* likely = likely_unit(surface_size(surface), config);
+    return likely ? std::optional<std::string>(likely->name) : std::nullopt;
+}
 
 PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& options, const StageListener& listener)
 {

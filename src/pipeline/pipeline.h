@@ -47,6 +47,13 @@ struct PipelineRun {
     std::map<int32_t, std::string> label_names; // names of label values the file gives
     std::string label_source;     // where those labels came from ("cell array ModelFaceID", ...)
     std::vector<std::string> warnings; // what the run found doubtful in its input (units), for report.json
+    struct BorderContact {
+        std::string side;  // "x-", "x+", "y-", "y+", "z-" or "z+"
+        double area = 0;   // mm^2 of the image face the inside voxels touch
+        int64_t voxels = 0;
+        bool opened = false; // a border opening of the case is on this side
+    };
+    std::vector<BorderContact> border_contacts; // image inputs: the sides the segmentation touches
     SurfaceFacts opened;          // facts of `surface` after the openings were cut (facts: before)
     int64_t closed_regions_dropped = 0;    // separate regions without an opening, left out of the mesh
     double closed_regions_volume = 0;      // mm^3 they enclosed
@@ -81,6 +88,11 @@ struct PipelineOptions {
     // openings, open ends are cut flat). Not owned; must outlive the call.
     const LabelledSurface* surface = nullptr;
 };
+
+// For a surface implausibly small or large in the case's unit (outside 0.5 mm
+// to 2 m across): the unit ("um", "mm", "cm" or "m") that makes it about 5 cm
+// across; nullopt when it is plausible.
+std::optional<std::string> likely_units(const SurfaceMesh& surface, const CaseConfig& config);
 
 // Runs the stages for `config`. Throws InputError, IoError or StageError.
 PipelineRun run_pipeline(const CaseConfig& config, const PipelineOptions& options,

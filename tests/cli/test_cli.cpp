@@ -5,6 +5,7 @@
 #include "core/surface_mesh.h"
 #include "importers/stl_importer.h"
 #include "importers/vdb_importer.h"
+#include "reliability/hostile_support.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -208,6 +209,67 @@ TEST(Cli, RefusesBadCaseFilesWithoutWritingOutput)
     const TempDir odd;
     std::filesystem::create_directories(odd.path / "scalemesh.toml");
     expect_refused(run_scalemesh({"run", odd.path.string()}), 3, "scalemesh.toml: is not a file (a directory?)");
+}
+
+std::string read_text(const std::filesystem::path& path)
+{
+    std::ifstream in(path);
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// `scalemesh init` writes a case that runs as written: border openings where
+// a mask runs off its image, the unit of a surface in metres; it never
+// replaces a case file unasked, and a missing input leaves nothing behind.
+TEST(Cli, InitWritesACaseThatRunsAsWritten)
+{
+    const TempDir tmp;
+    // A tube of 4 voxels radius along z that runs off the image at both ends,
+    // wider where it leaves through z-.
+    write_label_mha(tmp.path / "tube.mha", {20, 20, 30}, 0.5, [](int i, int j, int k) {
+        return std::hypot(i - 9.5, j - 9.5) < (k < 3 ? 5 : 4);
+    });
+    const std::filesystem::path image_case = tmp.path / "image_case";
+    CommandResult r = run_scalemesh({"init", image_case.string(), (tmp.path / "tube.mha").string()});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const std::string text = read_text(image_case / "scalemesh.toml");
+    EXPECT_NE(text.find("file = \"../tube.mha\""), std::string::npos) << text;
+    EXPECT_NE(text.find("name = \"inlet\"\ntype = \"inlet\"\nborder = \"z-\""), std::string::npos) << text;
+    EXPECT_NE(text.find("name = \"outlet\"\ntype = \"outlet\"\nborder = \"z+\""), std::string::npos) << text;
+    EXPECT_NE(r.err.find("border opening 'inlet' on the image's z- side"), std::string::npos) << r.err;
+    r = run_scalemesh({"run", image_case.string(), "-q"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const nlohmann::json report = nlohmann::json::parse(read_text(image_case / "report.json"));
+    ASSERT_EQ(report["openings"].size(), 2u) << report["openings"];
+    EXPECT_EQ(report["openings"][0]["name"], "inlet");
+    EXPECT_EQ(report["openings"][0]["type"], "inlet");
+    EXPECT_EQ(report["openings"][1]["name"], "outlet");
+    EXPECT_LT(report["openings"][0]["point_mm"][2].get<double>(), report["openings"][1]["point_mm"][2].get<double>());
+    EXPECT_EQ(report["warnings"].dump().find("touches the image"), std::string::npos) << report["warnings"];
+
+    // The case file is not replaced unasked.
+    expect_refused(run_scalemesh({"init", image_case.string(), (tmp.path / "tube.mha").string()}), 2,
+                   "scalemesh.toml exists already. Hint: give another case directory, or --force");
+    EXPECT_EQ(run_scalemesh({"init", image_case.string(), (tmp.path / "tube.mha").string(), "--force", "-q"}).exit_code,
+              0);
+
+    // A closed 20 mm cube written in metres: units = "m", and the run has no units warning.
+    const double L = 0.02;
+    const Vec3 a{0, 0, L}, b{L, 0, L}, c{L, L, L}, d{0, L, L}, e{0, 0, 0}, f{L, 0, 0}, g{L, L, 0}, h{0, L, 0};
+    write_stl(tmp.path / "cube.stl", {{a, b, c}, {a, c, d}, {e, g, f}, {e, h, g}, {e, f, b}, {e, b, a},
+                                      {f, g, c}, {f, c, b}, {g, h, d}, {g, d, c}, {h, e, a}, {h, a, d}});
+    const std::filesystem::path surface_case = tmp.path / "surface_case";
+    r = run_scalemesh({"init", surface_case.string(), (tmp.path / "cube.stl").string()});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(read_text(surface_case / "scalemesh.toml").find("\nunits = \"m\""), std::string::npos)
+        << read_text(surface_case / "scalemesh.toml");
+    r = run_scalemesh({"run", surface_case.string(), "-q"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(read_text(surface_case / "report.json").find("implausible"), std::string::npos);
+
+    // A missing input: refused, and no case directory is made.
+    expect_refused(run_scalemesh({"init", (tmp.path / "none").string(), (tmp.path / "missing.mha").string()}), 3,
+                   "missing.mha: no such file");
+    EXPECT_FALSE(std::filesystem::exists(tmp.path / "none"));
 }
 
 // Command-line mistakes end with 2, as bad input does (not CLI11's own 100 and
