@@ -20,7 +20,9 @@
 #include <cstring>
 #include <fstream>
 #include <map>
+#include <limits>
 #include <numbers>
+#include <numeric>
 #include <random>
 #include <sstream>
 
@@ -566,9 +568,43 @@ TEST(ImageImporter, ThresholdsAnIntensityImage)
     }
     EXPECT_THROW(read_image(s.dir / "ct.mha", {.threshold = std::nan("")}), InputError);
 
+    // What init reads: many values, a histogram of all of them.
+    const ImageValues values = image_values(s.dir / "ct.mha");
+    EXPECT_TRUE(values.many);
+    EXPECT_FALSE(values.integer);
+    ASSERT_EQ(values.histogram.size(), 256u);
+    EXPECT_EQ(std::accumulate(values.histogram.begin(), values.histogram.end(), int64_t{0}), 12 * 12 * 12);
+    EXPECT_FLOAT_EQ(values.max, 100.0f);
+
     v[100] = std::numeric_limits<float>::infinity();
     write_bytes(s.dir / "inf.mha", mha({12, 12, 12}, {1, 1, 1}, {0, 0, 0}, "MET_FLOAT", raw(v)));
     EXPECT_THROW(read_image(s.dir / "inf.mha", {.threshold = 96.5}), InputError);
+    // A NaN is neither above nor below a threshold: refused, not taken as outside.
+    v[100] = std::nanf("");
+    write_bytes(s.dir / "nan.mha", mha({12, 12, 12}, {1, 1, 1}, {0, 0, 0}, "MET_FLOAT", raw(v)));
+    try {
+        read_image(s.dir / "nan.mha", {.threshold = 96.5});
+        ADD_FAILURE() << "a NaN voxel was read";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("has 1 NaN or infinite voxel values, the first at voxel (4, 8, 0)"),
+                  std::string::npos)
+            << e.what();
+    }
+}
+
+TEST(ImageImporter, ImageValuesCountTheLabelsOfALabelMap)
+{
+    const Scratch s;
+    std::vector<uint8_t> v(8 * 8 * 8, 0);
+    for (size_t i = 0; i < 40; ++i) v[i] = 3;
+    for (size_t i = 40; i < 45; ++i) v[i] = 7;
+    write_bytes(s.dir / "labels.mha", mha({8, 8, 8}, {1, 1, 1}, {0, 0, 0}, "MET_UCHAR", raw(v)));
+    const ImageValues values = image_values(s.dir / "labels.mha");
+    EXPECT_FALSE(values.many);
+    EXPECT_TRUE(values.integer);
+    const std::vector<std::pair<double, int64_t>> expected = {{0, 512 - 45}, {3, 40}, {7, 5}};
+    EXPECT_EQ(values.counts, expected);
+    EXPECT_TRUE(values.histogram.empty());
 }
 
 TEST(ImageImporter, ReadsASingleVolume4DImageAndRefuses2DAndSeries)
