@@ -48,10 +48,14 @@ case "${1:-run}" in
     ctest --test-dir "$build" --output-on-failure -j "$(nproc)" --timeout 900
     # The fast part of the suite again, built with AddressSanitizer and
     # UndefinedBehaviorSanitizer (any report fails the test). Leak checking is
-    # off: the Gmsh SDK keeps allocations until the process ends.
-    asan=build-asan
+    # off: the Gmsh SDK keeps allocations until the process ends. clang at -O1
+    # with line tables only builds it in a third of GCC's -O2 -g time (570 s
+    # against 1713 s on 2 cores), and its UBSan checks at least as much.
+    asan=build-asan-clang
     if [ ! -f "$asan/build.ninja" ]; then
-      cmake -S . -B "$asan" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSCALEMESH_SANITIZE=ON -DSCALEMESH_BENCH=OFF
+      CC=clang CXX=clang++ cmake -S . -B "$asan" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+        -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -gline-tables-only -DNDEBUG" \
+        -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -gline-tables-only -DNDEBUG" -DSCALEMESH_SANITIZE=ON -DSCALEMESH_BENCH=OFF
     fi
     fast_targets=$(sed -n 's/^scalemesh_test(\([a-z_]*\) FAST.*/\1/p' tests/*/CMakeLists.txt)
     # shellcheck disable=SC2086

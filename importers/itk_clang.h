@@ -1,5 +1,6 @@
 #pragma once
-// Force-included into the importers in the fuzz build. Debian's ITK 5.2
+// Force-included into the importers under clang (the fuzz and sanitizer
+// builds, importers/CMakeLists.txt). Debian's ITK 5.2
 // headers were generated for GCC only: itk_compiler_detection.h stops with
 // "Unsupported compiler" under clang. It is read here once as under GCC 12
 // (clang 14 in C++20 has every feature its table lists for GCC); its include
