@@ -1,6 +1,7 @@
 #include "importers/image_importer.h"
 
 #include "core/errors.h"
+#include "core/memory_text.h"
 #include "importers/vti_importer.h"
 
 #include <itkImageIOBase.h>
@@ -161,15 +162,9 @@ void require_image_memory(const std::string& name, double voxels, int component_
 {
     const double needed = voxels * (component_bytes + sizeof(float));
     if (max_bytes <= 0 || needed <= static_cast<double>(max_bytes)) return;
-    const auto gib = [](double bytes) {
-        char text[32];
-        if (bytes < 1024.0 * 1024.0 * 1024.0) std::snprintf(text, sizeof text, "%.3g MiB", bytes / (1024.0 * 1024.0));
-        else std::snprintf(text, sizeof text, "%.3g GiB", bytes / (1024.0 * 1024.0 * 1024.0));
-        return std::string(text);
-    };
     throw InputError(name + " holds " + number(voxels) + " voxels of " + std::to_string(component_bytes) +
-                         " bytes, which would take about " + gib(needed) + " to import, more than the " +
-                         gib(static_cast<double>(max_bytes)) + " allowed",
+                         " bytes, which would take about " + memory_text(needed) + " to import, more than the " +
+                         memory_text(static_cast<double>(max_bytes)) + " allowed",
                      "crop the image to the region of interest (or resample it coarser), or raise --max-memory on "
                      "a machine with more memory");
 }

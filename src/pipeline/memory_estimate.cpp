@@ -69,18 +69,6 @@ int64_t parse_memory_size(const std::string& text, const std::string& what)
     return static_cast<int64_t>(bytes);
 }
 
-std::string memory_text(double bytes)
-{
-    char text[64];
-    // Binary units, as --max-memory reads them; beyond a thousand TiB (a
-    // mesh no machine holds) in powers of ten, so the unit is never cut off.
-    if (!std::isfinite(bytes) || bytes >= 0x1p50) std::snprintf(text, sizeof text, "%.3g TiB", bytes / 0x1p40);
-    else if (bytes >= 0x1p40) std::snprintf(text, sizeof text, "%.1f TiB", bytes / 0x1p40);
-    else if (bytes >= 0x1p30) std::snprintf(text, sizeof text, "%.1f GiB", bytes / 0x1p30);
-    else std::snprintf(text, sizeof text, "%.0f MiB", bytes / 0x1p20);
-    return text;
-}
-
 double volume_points(const FeatureSize& sizing, double M, double L_max)
 {
     double points = 0;

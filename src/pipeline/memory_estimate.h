@@ -7,6 +7,7 @@
 // 95 MB (the libraries) plus about 250 bytes per marching cubes triangle and
 // 1.8 to 2.4 kB per point of the volume mesh.
 
+#include "core/memory_text.h"
 #include "core/surface_mesh.h"
 #include "sizing/feature_size.h"
 
@@ -32,9 +33,6 @@ int64_t peak_resident_memory();
 // "8G", "512M", "1.5 GB", "300MiB", "2000000000": bytes (K, M, G, T are
 // powers of 1024). Throws InputError naming `what` for anything else.
 int64_t parse_memory_size(const std::string& text, const std::string& what);
-
-// "1.2 GiB", "300 MiB": bytes for a message.
-std::string memory_text(double bytes);
 
 // Points of the volume mesh Algorithm 4 makes, summed over the nodes of a
 // sized surface: the node, up to floor(M/2) layer points d/M apart, then
