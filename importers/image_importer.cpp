@@ -562,9 +562,8 @@ std::optional<int64_t> data_file_size(itk::ImageIOBase& io, const std::filesyste
     if (data_file.starts_with("LIST") || data_file.find_first_of("% \t") != std::string::npos) return std::nullopt;
     // A device (/dev/zero) or a FIFO would be read without end or wait
     // forever: only a regular file holds voxels.
-    const std::filesystem::path data = std::filesystem::path(data_file).is_absolute()
-                                           ? std::filesystem::path(data_file)
-                                           : path.parent_path() / data_file;
+    // operator/ keeps an absolute data file as it is.
+    const std::filesystem::path data = path.parent_path() / data_file;
     std::error_code ec;
     const std::filesystem::file_status status = std::filesystem::status(data, ec);
     if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status))
