@@ -13,6 +13,7 @@
 #include "volume/quality.h"
 
 #include <nlohmann/json.hpp>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -506,6 +507,11 @@ std::vector<std::filesystem::path> stale_outputs(const CaseConfig& config,
     return stale;
 }
 
+namespace {
+CaseResult run_and_write(const std::filesystem::path& dir, const CaseConfig& config, const StageListener& listener,
+                         int64_t orphans, int64_t max_memory);
+} // namespace
+
 CaseResult run_case(const std::filesystem::path& dir, const StageListener& listener, std::optional<int> threads,
                     int64_t max_memory)
 {
@@ -517,6 +523,17 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
                              "give 0 (all cores) or a thread count");
         config.threads = *threads;
     }
+    // The stages and the export in one arena of the case's threads, so that
+    // --threads bounds every parallel step, the writers' included.
+    tbb::task_arena arena(config.threads > 0 ? config.threads : tbb::task_arena::automatic);
+    return arena.execute([&] { return run_and_write(dir, config, listener, orphans, max_memory); });
+}
+
+namespace {
+
+CaseResult run_and_write(const std::filesystem::path& dir, const CaseConfig& config, const StageListener& listener,
+                         int64_t orphans, int64_t max_memory)
+{
     CaseResult result;
     const bool volume = config.volume && config.remesh_cycles > 0;
     result.run = run_pipeline(
@@ -658,5 +675,7 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
     }
     return result;
 }
+
+} // namespace
 
 } // namespace scalemesh
