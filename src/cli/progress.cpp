@@ -210,7 +210,9 @@ void ProgressDisplay::summary(const CaseConfig& config, const CaseResult& result
         std::string stale;
         for (const auto& p : result.removed)
             stale += (stale.empty() ? "" : " ") + std::filesystem::relative(p, config.directory).string();
-        std::fprintf(o, "  removed   %s (an earlier run's outputs that this run did not write)\n", stale.c_str());
+        // The count first: a name such as OpenFOAM's "0" would read as one.
+        std::fprintf(o, "  removed   %zu earlier output%s this run did not write: %s\n", result.removed.size(),
+                     result.removed.size() == 1 ? "" : "s", stale.c_str());
     }
     if (result.orphaned_partials > 0)
         std::fprintf(o, "  removed   %lld unfinished outputs of runs that were killed\n",

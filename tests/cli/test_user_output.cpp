@@ -333,8 +333,8 @@ TEST(CliOutput, ARunRemovesWhatAnEarlierRunWroteAndItDidNot)
     const nlohmann::json report = report_of(dir);
     EXPECT_EQ(report["removed"].get<std::vector<std::string>>(), stale);
     EXPECT_EQ(report["removed_partial_files"], 1);
-    EXPECT_NE(r.err.find("\n  removed   constant/polyMesh constant/transportProperties constant/turbulenceProperties "
-                         "system Allrun (an earlier run's outputs that this run did not write)\n"),
+    EXPECT_NE(r.err.find("\n  removed   5 earlier outputs this run did not write: constant/polyMesh "
+                         "constant/transportProperties constant/turbulenceProperties system Allrun\n"),
               std::string::npos)
         << r.err;
     EXPECT_NE(r.err.find("\n  removed   1 unfinished outputs of runs that were killed\n"), std::string::npos) << r.err;
