@@ -37,16 +37,6 @@ std::string toml_number(double v)
     return out;
 }
 
-std::string toml_string(const std::string& s)
-{
-    std::string out = "\"";
-    for (char c : s) {
-        if (c == '"' || c == '\\') out += '\\';
-        out += c;
-    }
-    return out + "\"";
-}
-
 std::string toml_length(const MeshLength& l)
 {
     if (!std::isfinite(l.value)) return toml_number(l.value); // refused as "not a length"

@@ -115,6 +115,16 @@ private:
 
 } // namespace
 
+std::string toml_string(const std::string& s)
+{
+    std::string out = "\"";
+    for (char c : s) {
+        if (c == '"' || c == '\\') out += '\\';
+        out += c;
+    }
+    return out + "\"";
+}
+
 CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir, const std::string& source)
 {
     toml::table root;

@@ -103,6 +103,9 @@ struct CaseConfig {
 // value out of range; IoError when the file is missing.
 CaseConfig read_case(const std::filesystem::path& dir);
 
+// A TOML basic string for case-file text: quoted, with '"' and '\\' escaped.
+std::string toml_string(const std::string& s);
+
 // Parses a case file's text; `dir` is where relative paths resolve.
 CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir, const std::string& source);
 

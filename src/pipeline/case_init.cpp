@@ -15,16 +15,6 @@ namespace scalemesh {
 
 namespace {
 
-std::string quoted(const std::string& s)
-{
-    std::string out = "\"";
-    for (char c : s) {
-        if (c == '"' || c == '\\') out += '\\';
-        out += c;
-    }
-    return out + "\"";
-}
-
 std::string number(double v)
 {
     char text[32];
@@ -116,8 +106,8 @@ std::string image_reading(const std::filesystem::path& file, int64_t max_memory,
 PipelineRun inspect(std::string text, const std::filesystem::path& dir, int64_t max_memory,
                     const std::string& written, const std::filesystem::path& absolute)
 {
-    const std::string line = "file = " + quoted(written) + "\n";
-    text.replace(text.find(line), line.size(), "file = " + quoted(absolute.string()) + "\n");
+    const std::string line = "file = " + toml_string(written) + "\n";
+    text.replace(text.find(line), line.size(), "file = " + toml_string(absolute.string()) + "\n");
     const CaseConfig config = parse_case(text, dir, "scalemesh init");
     return run_pipeline(config, {.sizing = false, .remesh = false, .volume = false, .max_memory = max_memory});
 }
@@ -164,7 +154,7 @@ InitialCase initial_case(const std::filesystem::path& file, const std::filesyste
 
     std::ostringstream input;
     input << "# scalemesh case, written by `scalemesh init` from " << file.filename().string()
-          << ".\n# Run it with: scalemesh run " << dir.string() << "\n\n[input]\nfile = " << quoted(path) << "\n";
+          << ".\n# Run it with: scalemesh run " << dir.string() << "\n\n[input]\nfile = " << toml_string(path) << "\n";
     const bool image = is_image_file(file) || lower_extension(file) == ".vdb";
     std::string openings;
     if (image) {
@@ -179,8 +169,8 @@ InitialCase initial_case(const std::filesystem::path& file, const std::filesyste
             const std::string name = inlet ? "inlet" : sides.size() == 2 ? "outlet" : "outlet_" + std::to_string(++outlets);
             o << "\n# The segmentation touches the image's " << side.side << " side over " << number(side.area)
               << " mm^2 (" << side.voxels << " voxels): the vessel runs on beyond the image there.\n"
-              << "[[openings]]\nname = " << quoted(name) << "\ntype = " << (inlet ? "\"inlet\"" : "\"outlet\"")
-              << "\nborder = " << quoted(side.side) << "\n";
+              << "[[openings]]\nname = " << toml_string(name) << "\ntype = " << (inlet ? "\"inlet\"" : "\"outlet\"")
+              << "\nborder = " << toml_string(side.side) << "\n";
             out.notes.push_back("border opening '" + name + "' on the image's " + side.side + " side (" +
                                 number(side.area) + " mm^2 touched)");
         }
@@ -196,7 +186,7 @@ InitialCase initial_case(const std::filesystem::path& file, const std::filesyste
         // A surface: its unit, then its open ends and labelled caps.
         PipelineRun run = inspect(input.str(), dir, max_memory, path, absolute);
         if (const std::optional<std::string> unit = likely_units(run.surface, CaseConfig{})) {
-            input << "units = " << quoted(*unit) << "   # the file's coordinates are implausible in mm\n";
+            input << "units = " << toml_string(*unit) << "   # the file's coordinates are implausible in mm\n";
             out.notes.push_back("units \"" + *unit + "\": in mm the surface would be implausibly small or large");
             run = inspect(input.str(), dir, max_memory, path, absolute);
         }
@@ -209,7 +199,7 @@ InitialCase initial_case(const std::filesystem::path& file, const std::filesyste
             o << "\n# Openings found by themselves (open ends and flat labelled caps), largest first the inlet.\n"
               << "# To rename, retype or reorder them, uncomment and edit (docs/case-file.md, Open ends):\n";
             for (const Cap& cap : run.caps) {
-                o << "# [[openings]]\n# name = " << quoted(cap.name) << "\n# type = "
+                o << "# [[openings]]\n# name = " << toml_string(cap.name) << "\n# type = "
                   << (cap.type == OpeningType::Inlet ? "\"inlet\"" : "\"outlet\"") << "\n# near = "
                   << point(cap.centroid) << "   # " << number(cap.area) << " mm^2\n";
                 out.notes.push_back("opening '" + cap.name + "' (" +

@@ -14,7 +14,9 @@
 #include <openvdb/openvdb.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <functional>
 #include <map>
 #include <numbers>
 
@@ -421,11 +423,15 @@ TEST(BorderOpenings, TaperingPiecesEachGetAFullCapAndAShortPieceIsReported)
     EXPECT_NEAR(old.borders[0].inset, 2 * kComb_h, 1e-12);
 }
 
-// A cone whose cross-section shrinks towards the image face all the way:
-// the automatic inset never settles, and the warning says where it cut.
-TEST(BorderOpenings, AConeShrinkingToTheFaceIsCutAtTheDeepestPlaneSearchedAndSaysSo)
+// The smoothed marching-cubes surface of a label image of kComb_h voxels
+// whose inside voxels `inside` picks, and the image's frame.
+struct ImageSurface {
+    SurfaceMesh surface;
+    ImageFrame frame;
+};
+
+ImageSurface image_surface(const std::array<int, 3>& size, const std::function<bool(int, int, int)>& inside)
 {
-    constexpr int size[3] = {26, 26, 30};
     openvdb::initialize();
     auto grid = openvdb::FloatGrid::create(0.0f);
     grid->setTransform(openvdb::math::Transform::createLinearTransform(kComb_h));
@@ -434,17 +440,27 @@ TEST(BorderOpenings, AConeShrinkingToTheFaceIsCutAtTheDeepestPlaneSearchedAndSay
     auto access = grid->getAccessor();
     for (int i = 0; i < size[0]; ++i)
         for (int j = 0; j < size[1]; ++j)
-            for (int k = 15; k < size[2]; ++k)
-                if (std::hypot(i - 13, j - 13) < 2 + 0.45 * (size[2] - 1 - k)) access.setValue(openvdb::Coord(i, j, k), 1.0f);
-    SurfaceMesh cone = marching_cubes(*grid);
-    smooth_volume_conserving(cone, {.sweeps = 10, .omega = 1.0, .max_displacement = 0.5 * kComb_h});
-    ImageFrame frame;
+            for (int k = 0; k < size[2]; ++k)
+                if (inside(i, j, k)) access.setValue(openvdb::Coord(i, j, k), 1.0f);
+    ImageSurface out{marching_cubes(*grid), {}};
+    smooth_volume_conserving(out.surface, {.sweeps = 10, .omega = 1.0, .max_displacement = 0.5 * kComb_h});
     for (int k = 0; k < 3; ++k) {
-        frame.axis[k] = Vec3{0, 0, 0};
-        frame.axis[k][k] = kComb_h;
-        frame.size[k] = size[k];
+        out.frame.axis[k] = Vec3{0, 0, 0};
+        out.frame.axis[k][k] = kComb_h;
+        out.frame.size[k] = size[k];
     }
-    const CappedSurface capped = cut_and_cap(cone, {border_opening("outlet", OpeningType::Outlet, "z+")}, frame);
+    return out;
+}
+
+// A cone whose cross-section shrinks towards the image face all the way:
+// the automatic inset never settles, and the warning says where it cut.
+TEST(BorderOpenings, AConeShrinkingToTheFaceIsCutAtTheDeepestPlaneSearchedAndSaysSo)
+{
+    const ImageSurface cone = image_surface({26, 26, 30}, [](int i, int j, int k) {
+        return k >= 15 && std::hypot(i - 13, j - 13) < 2 + 0.45 * (29 - k);
+    });
+    const CappedSurface capped =
+        cut_and_cap(cone.surface, {border_opening("outlet", OpeningType::Outlet, "z+")}, cone.frame);
     ASSERT_EQ(capped.borders.size(), 1u);
     const BorderCut& outlet = capped.borders[0];
     EXPECT_TRUE(outlet.automatic);
@@ -465,29 +481,12 @@ TEST(BorderOpenings, AConeShrinkingToTheFaceIsCutAtTheDeepestPlaneSearchedAndSay
 // and the warning says so.
 TEST(BorderOpenings, TwoConesJoiningNearTheFaceAreCutBeforeTheJoinAndSaySo)
 {
-    constexpr int size[3] = {26, 26, 30};
-    openvdb::initialize();
-    auto grid = openvdb::FloatGrid::create(0.0f);
-    grid->setTransform(openvdb::math::Transform::createLinearTransform(kComb_h));
-    grid->setName("label");
-    grid->setGridClass(openvdb::GRID_FOG_VOLUME);
-    auto access = grid->getAccessor();
-    for (int i = 0; i < size[0]; ++i)
-        for (int j = 0; j < size[1]; ++j)
-            for (int k = 18; k < size[2]; ++k) {
-                const double r = 2 + 0.45 * (size[2] - 1 - k); // they widen into each other, 7 voxels in
-                if (std::hypot(i - 8, j - 13) < r || std::hypot(i - 18, j - 13) < r)
-                    access.setValue(openvdb::Coord(i, j, k), 1.0f);
-            }
-    SurfaceMesh joined = marching_cubes(*grid);
-    smooth_volume_conserving(joined, {.sweeps = 10, .omega = 1.0, .max_displacement = 0.5 * kComb_h});
-    ImageFrame frame;
-    for (int k = 0; k < 3; ++k) {
-        frame.axis[k] = Vec3{0, 0, 0};
-        frame.axis[k][k] = kComb_h;
-        frame.size[k] = size[k];
-    }
-    const CappedSurface capped = cut_and_cap(joined, {border_opening("outlet", OpeningType::Outlet, "z+")}, frame);
+    const ImageSurface joined = image_surface({26, 26, 30}, [](int i, int j, int k) {
+        const double r = 2 + 0.45 * (29 - k); // they widen into each other, 7 voxels in
+        return k >= 18 && (std::hypot(i - 8, j - 13) < r || std::hypot(i - 18, j - 13) < r);
+    });
+    const CappedSurface capped =
+        cut_and_cap(joined.surface, {border_opening("outlet", OpeningType::Outlet, "z+")}, joined.frame);
     ASSERT_EQ(capped.borders.size(), 1u);
     const BorderCut& outlet = capped.borders[0];
     EXPECT_TRUE(outlet.automatic);
