@@ -243,8 +243,8 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
     config.remesh_cycles = static_cast<int>(cycles);
 
     const Section volume(root["volume"].as_table(), "volume", source,
-                         {"enabled", "growth", "first_layer", "layer_tolerance", "min_layer_coverage", "min_aspect_ratio",
-                          "min_dihedral_deg"});
+                         {"enabled", "layers", "growth", "first_layer", "layer_tolerance", "min_layer_coverage",
+                          "min_aspect_ratio", "min_dihedral_deg"});
     config.volume = volume.get<bool>("enabled").value_or(true);
     config.growth = volume.number("growth", 1.0, 1.0, 3.0);
     if (const auto first = volume.get<std::string>("first_layer")) {
@@ -254,6 +254,14 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
             throw InputError(volume.where("first_layer") + " = \"" + *first + "\" is not a first-layer rule",
                              "write first_layer = \"edge\" (thickness = surface edge length / K) or \"paper\" "
                              "(the paper's d/M)");
+    }
+    if (const auto layers = volume.get<std::string>("layers")) {
+        if (*layers == "delaunay") config.layers = LayerMode::delaunay;
+        else if (*layers == "prisms") config.layers = LayerMode::prisms;
+        else
+            throw InputError(volume.where("layers") + " = \"" + *layers + "\" is not a layer construction",
+                             "write layers = \"delaunay\" (the method paper's layer points in one Delaunay "
+                             "triangulation) or \"prisms\" (prism layers built explicitly, the core meshed above them)");
     }
     config.layer_tolerance = volume.number("layer_tolerance", 0.15, 0.0, 0.5, true);
     config.min_layer_coverage = volume.number("min_layer_coverage", 0.99, 0.0, 1.0);
@@ -433,6 +441,9 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
     if (threads < 0 || threads > 1024)
         throw InputError(run.where("threads") + " is out of range", "give 0 (all cores) or a thread count");
     config.threads = static_cast<int>(threads);
+    if (config.layers == LayerMode::prisms && !config.openings.empty())
+        throw InputError(source + ": [volume] layers = \"prisms\" does not yet mesh a case with [[openings]]",
+                         "use [volume] layers = \"delaunay\" (the default) for this case");
     return config;
 }
 

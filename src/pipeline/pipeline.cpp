@@ -2,7 +2,7 @@
 
 #include "core/errors.h"
 #include "importers/image_importer.h"
-#include "importers/self_intersections.h"
+#include "volume/self_intersections.h"
 #include "importers/surface_importer.h"
 #include "importers/vdb_importer.h"
 #include "isosurface/marching_cubes.h"
@@ -705,6 +705,7 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
     volume.L_min = run.L_min;
     volume.layer_tolerance = config.layer_tolerance;
     volume.first_layer = config.first_layer;
+    volume.layers = config.layers;
     volume.aspect_ratio_floor = config.min_aspect_ratio;
 
     // Section 2.3: where the volume mesh cannot conform to the surface, the

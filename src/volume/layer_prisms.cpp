@@ -101,22 +101,27 @@ std::optional<Vec3> group_centroid(const TetMesh& mesh, const std::array<int32_t
 bool star_shaped(const TetMesh& mesh, const TetFaceAdjacency& adjacency, const std::vector<int32_t>& group_of,
                  int32_t g, const std::array<int32_t, 3>& group, const Vec3& centroid)
 {
-    const double min_sine = std::sin(3.0 * 3.14159265358979323846 / 180);
+    const double min_sine = std::sin(kStarAngleDeg * 3.14159265358979323846 / 180);
     for (int32_t t : group) {
         for (int k = 0; k < 4; ++k) {
             const int32_t across = adjacency.across[4 * t + k];
             if (across >= 0 && group_of[across] == g) continue;
             const Triangle f = tet_face(mesh.tets[t], k);
-            const Vec3 &p = mesh.points[f[0]], &q = mesh.points[f[1]], &r = mesh.points[f[2]];
-            const Vec3 n = cross(q - p, r - p); // outward: tet faces are counter-clockwise from outside
-            const Vec3 out = (p + q + r) / 3 - centroid;
-            if (!(dot(n, out) > min_sine * norm(n) * norm(out))) return false;
+            if (!faces_centre(mesh.points[f[0]], mesh.points[f[1]], mesh.points[f[2]], centroid, min_sine))
+                return false;
         }
     }
     return true;
 }
 
 } // namespace
+
+bool faces_centre(const Vec3& p, const Vec3& q, const Vec3& r, const Vec3& centre, double min_sine)
+{
+    const Vec3 n = cross(q - p, r - p); // outward: tet faces are counter-clockwise from outside
+    const Vec3 out = (p + q + r) / 3 - centre;
+    return dot(n, out) > min_sine * norm(n) * norm(out);
+}
 
 LayerPrismCells layer_prism_cells(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
                                   const std::vector<int32_t>& point_generator, const std::vector<int32_t>& point_layer,

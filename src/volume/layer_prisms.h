@@ -50,6 +50,14 @@ LayerPrismCells layer_prism_cells(const TetMesh& mesh, const TetFaceAdjacency& a
                                   const std::vector<char>& point_filler, double max_non_orthogonality_deg = 68,
                                   const std::vector<char>* apart = nullptr);
 
+// How far inside a cell its centre must be seen from each of its faces
+// (degrees) for the cell to be star-shaped enough for OpenFOAM's face
+// pyramids, and the test itself: whether triangle (p, q, r), counter-
+// clockwise seen from outside the cell, has `centre` on its inner side at
+// more than the angle whose sine is `min_sine`.
+constexpr double kStarAngleDeg = 3.0;
+bool faces_centre(const Vec3& p, const Vec3& q, const Vec3& r, const Vec3& centre, double min_sine);
+
 // How many layer prisms (as layer_prism_cells finds them) are filled by
 // exactly three tets, whether or not they would be accepted as cells: what
 // the tets keep of the layers as prisms.

@@ -88,8 +88,7 @@ std::optional<Vec3> repaired_inward_direction(const SurfaceMesh& surface, const 
     return std::nullopt;
 }
 
-std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const FeatureSize& sizing,
-                                       const OffsetParams& params)
+LayerColumns layer_columns(const SurfaceMesh& surface, const FeatureSize& sizing, const OffsetParams& params)
 {
     const size_t n = surface.points.size();
     if (sizing.d.size() != n || sizing.D.size() != n || sizing.normals.size() != n ||
@@ -169,29 +168,62 @@ std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const Feature
         });
     }
 
+    LayerColumns columns;
+    columns.layers = static_cast<int32_t>(lambda.size());
+    columns.inward.resize(n);
+    columns.dist.assign(n * lambda.size(), std::numeric_limits<double>::quiet_NaN());
+    columns.spacing.assign(n * lambda.size(), std::numeric_limits<double>::quiet_NaN());
+    columns.repaired = std::move(repaired);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t i = range.begin(); i != range.end(); ++i) {
+            columns.inward[i] = -normalized(direction[i]);
+            if (!sizing.inward_ok.empty() && !sizing.inward_ok[i] && !columns.repaired[i]) continue;
+            const double d = sizing.d[i];
+            if (!(d > 0)) continue;
+            const std::vector<double> own = edge.empty() || !(edge[i] > 0)
+                                                ? std::vector<double>()
+                                                : edge_layer_fractions(lambda, edge[i] / params.K / d);
+            const std::vector<double>& fractions = own.empty() ? lambda : own;
+            double dist = 0;
+            for (size_t m = 0; m < fractions.size(); ++m) {
+                const double step = fractions[m] * d;
+                dist += step;
+                columns.dist[i * fractions.size() + m] = dist;
+                columns.spacing[i * fractions.size() + m] = step;
+            }
+        }
+    });
+    return columns;
+}
+
+std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const FeatureSize& sizing,
+                                       const OffsetParams& params)
+{
+    const LayerColumns columns = layer_columns(surface, sizing, params);
+    const size_t n = surface.points.size();
+    const size_t L = static_cast<size_t>(columns.layers);
     // Node i's points, passed one by one to `emit`; the count pass and the
     // fill pass walk the same steps, so each node's points land in its own
     // slice of the output and the order does not depend on the threads.
     auto walk = [&](size_t i, auto&& emit) {
-        if (!sizing.inward_ok.empty() && !sizing.inward_ok[i] && !repaired[i]) return;
+        if (!sizing.inward_ok.empty() && !sizing.inward_ok[i] && !columns.repaired[i]) return;
+        const double* dist_of = columns.dist.data() + i * L;
         // A repaired node's D is not measured (no ray along its normal): its
         // layermaking points go to d / 2 at most, and it makes no fillers.
-        const double d = sizing.d[i], D = repaired[i] ? sizing.d[i] : sizing.D[i];
+        const bool repaired = columns.repaired[i];
+        const double d = sizing.d[i], D = repaired ? sizing.d[i] : sizing.D[i];
         if (!(d > 0) || !(D > 0)) return;
         const double filler_step = std::min(D, params.L_max) / params.M;
-        const std::vector<double> own =
-            edge.empty() || !(edge[i] > 0) ? std::vector<double>() : edge_layer_fractions(lambda, edge[i] / params.K / d);
-        const std::vector<double>& fractions = own.empty() ? lambda : own;
         double dist = 0;
-        for (int m = 1;; ++m) {
-            const bool filler = m > static_cast<int>(fractions.size());
-            if (filler && repaired[i]) break;
-            const double step = filler ? filler_step : fractions[m - 1] * d;
-            dist += step;
+        for (size_t m = 1;; ++m) {
+            const bool filler = m > L;
+            if (filler && repaired) break;
+            const double step = filler ? filler_step : columns.spacing[i * L + m - 1];
+            dist = filler ? dist + step : dist_of[m - 1];
             // For even M and d = D the last layermaking point is the
             // medial axis itself, D / 2 to round-off.
             if (!(dist <= D / 2 * (1 + 1e-12)) || !(step > 0)) break;
-            emit(m, filler, dist, step);
+            emit(static_cast<int>(m), filler, dist, step);
         }
     };
     std::vector<size_t> first(n + 1, 0);
@@ -202,7 +234,7 @@ std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const Feature
     std::vector<OffsetPoint> points(first[n]);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& range) {
         for (size_t i = range.begin(); i != range.end(); ++i) {
-            const Vec3 inward = -normalized(direction[i]);
+            const Vec3& inward = columns.inward[i];
             size_t k = first[i];
             walk(i, [&](int m, bool filler, double dist, double step) {
                 points[k++] = {surface.points[i] + dist * inward, static_cast<int32_t>(i), m, filler, dist, step};

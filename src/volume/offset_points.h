@@ -67,6 +67,21 @@ std::vector<double> edge_layer_fractions(const std::vector<double>& lambda, doub
 std::optional<Vec3> repaired_inward_direction(const SurfaceMesh& surface, const VertexTable& fans, int32_t v,
                                               const Vec3& start, double margin = 0.1);
 
+// Each surface node's column of layermaking points, as Algorithm 4 lays
+// them (with FirstLayer::edge, the fractions of edge_layer_fractions) but
+// not cut short at D / 2: what offset_points walks, and what a stack of
+// prism layers is built from (layer_stack.h).
+struct LayerColumns {
+    int32_t layers = 0;          // floor(M / 2), the points per column
+    std::vector<Vec3> inward;    // per node: the unit direction of its points into the volume
+    std::vector<double> dist;    // per node, `layers` entries: mm from the node of its points m = 1..layers;
+                                 // NaN for a node with no column (its inward check failed and its normal
+                                 // was not repaired, or d <= 0)
+    std::vector<double> spacing; // likewise: the spacing of each point, dist[m] - dist[m - 1]
+    std::vector<char> repaired;  // per node: its direction is repaired_inward_direction's
+};
+LayerColumns layer_columns(const SurfaceMesh& surface, const FeatureSize& sizing, const OffsetParams& params);
+
 // Algorithm 4 for every surface node i: layermaking points at cumulative
 // distances sum_{k<=m} lambda_k d_i for m = 1..floor(M/2) (with
 // FirstLayer::edge, the fractions of edge_layer_fractions), then filler points

@@ -1,9 +1,11 @@
 #include "volume/volume_mesh.h"
 
 #include "core/adjacency.h"
+#include "volume/core_mesh.h"
 #include "volume/delaunay_insertion.h"
 #include "volume/improve.h"
 #include "volume/layer_prisms.h"
+#include "volume/layer_stack.h"
 #include "volume/offset_points.h"
 #include "volume/quality.h"
 
@@ -11,6 +13,10 @@
 #include <CGAL/Spatial_sort_traits_adapter_3.h>
 #include <CGAL/Hilbert_policy_tags.h>
 #include <CGAL/Hilbert_sort_3.h>
+#include <CGAL/Fuzzy_sphere.h>
+#include <CGAL/Kd_tree.h>
+#include <CGAL/Search_traits_3.h>
+#include <CGAL/Simple_cartesian.h>
 #include <CGAL/property_map.h>
 
 #include <tbb/blocked_range.h>
@@ -163,6 +169,243 @@ std::vector<LayerBound> hold_stand_ins(const TetMesh& mesh, int32_t n, const std
     return held;
 }
 
+// VolumeResult::near_wall_anisotropy and its median: each surface node's
+// mean incident edge length over the distance of its first layer point.
+void measure_near_wall_anisotropy(VolumeResult& result, const SurfaceMesh& surface)
+{
+    const int32_t n = static_cast<int32_t>(surface.points.size());
+    const TetMesh& mesh = result.mesh;
+    std::vector<double> first_thickness(n, std::numeric_limits<double>::quiet_NaN());
+    for (size_t p = n; p < mesh.points.size(); ++p) {
+        const int32_t g = result.point_generator[p], m = result.point_layer[p];
+        if (!result.point_filler[p] && m == 1) first_thickness[g] = distance(mesh.points[p], surface.points[g]);
+    }
+    const VertexTable neighbours = vertex_neighbours(surface);
+    result.near_wall_anisotropy.assign(n, std::numeric_limits<double>::quiet_NaN());
+    std::vector<double> finite;
+    for (int32_t i = 0; i < n; ++i) {
+        if (!(first_thickness[i] > 0) || neighbours.size(i) == 0) continue;
+        double length = 0;
+        for (const int32_t* j = neighbours.begin(i); j != neighbours.end(i); ++j)
+            length += distance(surface.points[i], surface.points[*j]);
+        result.near_wall_anisotropy[i] = length / neighbours.size(i) / first_thickness[i];
+        finite.push_back(result.near_wall_anisotropy[i]);
+    }
+    if (!finite.empty()) {
+        std::nth_element(finite.begin(), finite.begin() + finite.size() / 2, finite.end());
+        result.first_layer_anisotropy_median = finite[finite.size() / 2];
+    }
+}
+
+OffsetParams offset_params(const VolumeParams& params)
+{
+    OffsetParams offset;
+    offset.M = params.M;
+    offset.growth = params.growth;
+    offset.first_layer = params.first_layer;
+    offset.K = params.K;
+    offset.L_max = params.L_max;
+    offset.filter_fraction = params.filter_fraction;
+    offset.filler_filter_fraction = params.filler_filter_fraction;
+    offset.repair_normals = true;
+    return offset;
+}
+
+// The core's cell passes: sliver removal, then the dihedral and
+// non-orthogonality passes as the Delaunay construction runs them, with
+// the core's boundary (the layers' top, the caps) frozen.
+void improve_core(TetMesh& core, int32_t frozen, const VolumeParams& params, VolumeResult& result)
+{
+    const SliverCounts slivers = remove_slivers(core, frozen, params.sliver_aspect_ratio, params.sliver_sweeps);
+    result.sliver_flips = slivers.flips, result.sliver_moves = slivers.moves;
+    result.sliver_splits = split_surface_slivers(core, frozen, params.sliver_aspect_ratio, kQualityFloor);
+    constexpr double kDihedralTarget = 12.0;
+    const auto cell_passes = Clock::now();
+    const DihedralCounts dihedral = raise_dihedral_angles(core, frozen, kDihedralTarget, 8);
+    result.dihedral_tets_before = dihedral.tets_before;
+    result.dihedral_flips = dihedral.flips, result.dihedral_moves = dihedral.moves;
+    result.dihedral_splits = dihedral.splits;
+    for (int round = 0; round < 3; ++round) {
+        const OrthoCounts ortho = improve_orthogonality(core, frozen, 65.0, round == 0 ? 12 : 4);
+        if (round == 0) result.ortho_faces_before = ortho.faces_before;
+        result.ortho_flips += ortho.flips, result.ortho_moves += ortho.moves, result.ortho_splits += ortho.splits;
+        const DihedralCounts again = raise_dihedral_angles(core, frozen, kDihedralTarget, 8);
+        result.dihedral_flips += again.flips, result.dihedral_moves += again.moves;
+        result.dihedral_splits += again.splits;
+        if (ortho.flips + ortho.moves + again.flips + again.moves + again.splits == 0) break;
+    }
+    result.seconds_cell_passes = seconds_since(cell_passes);
+}
+
+// The `prisms` construction: the layer stack (layer_stack.h) over the wall,
+// the core above it meshed by Gmsh (core_mesh.h) and improved with its
+// boundary frozen, the two joined. Points: the surface's, the layer points,
+// the core's own (fillers of layer floor(M/2) + 1, each attributed to the
+// generator of a point it shares a tet with).
+void build_stacked_mesh(const SurfaceMesh& surface, const FeatureSize& sizing, const VolumeParams& params,
+                        VolumeResult& result)
+{
+    const int32_t n = static_cast<int32_t>(surface.points.size());
+    if (surface.triangle_patch.size() == surface.triangles.size() &&
+        std::any_of(surface.triangle_patch.begin(), surface.triangle_patch.end(), [](int32_t p) { return p != 0; }))
+        throw InputError("volume: layers = \"prisms\" does not yet mesh a surface with openings",
+                         "use [volume] layers = \"delaunay\" for a case with [[openings]]");
+    auto t0 = Clock::now();
+    const OffsetParams offset = offset_params(params);
+    const std::vector<OffsetPoint> raw = offset_points(surface, sizing, offset);
+    const LayerStack stack = build_layer_stack(surface, sizing, layer_columns(surface, sizing, offset));
+    result.offset_points = static_cast<int64_t>(raw.size());
+    result.stack_shortened_nodes = stack.shortened_nodes;
+    result.stack_rounds = stack.rounds;
+    result.seconds_points = seconds_since(t0);
+
+    // The core's boundary: the stack's top, its points renumbered from 0.
+    t0 = Clock::now();
+    const int32_t stack_end = n + static_cast<int32_t>(stack.points.size());
+    std::vector<int32_t> local(stack_end, -1);
+    SurfaceMesh boundary;
+    std::vector<int32_t> global; // core boundary point -> mesh point
+    for (const Triangle& t : stack.top) {
+        Triangle mapped;
+        for (int k = 0; k < 3; ++k) {
+            int32_t& id = local[t[k]];
+            if (id < 0) {
+                id = static_cast<int32_t>(global.size());
+                global.push_back(t[k]);
+                boundary.points.push_back(t[k] < n ? surface.points[t[k]] : stack.points[t[k] - n]);
+            }
+            mapped[k] = id;
+        }
+        boundary.triangles.push_back(mapped);
+    }
+    boundary.triangle_patch.assign(boundary.triangles.size(), 0);
+    // Inside, points along each wall node's normal beyond its top, every
+    // min(D, L_max) / M (the paper's filler spacing) from half a spacing past
+    // the top while within D / 2, thinned by section 4's filter and kept a
+    // quarter spacing from every point of the top: in a tube, a row along
+    // the axis, which the core's tets reach from each top triangle.
+    using Kernel = CGAL::Simple_cartesian<double>;
+    using Tree = CGAL::Kd_tree<CGAL::Search_traits_3<Kernel>>;
+    std::vector<Kernel::Point_3> tops;
+    tops.reserve(boundary.points.size());
+    for (const Vec3& x : boundary.points) tops.emplace_back(x.x, x.y, x.z);
+    const Tree tree(tops.begin(), tops.end());
+    const int32_t L = stack.layers;
+    std::vector<OffsetPoint> beyond;
+    for (int32_t v = 0; v < n; ++v) {
+        if (stack.first[v] < 0 || L == 0) continue;
+        const Vec3& top = stack.points[stack.first[v] + L - 1];
+        const Vec3 inward = normalized(top - surface.points[v]);
+        const double step = std::min(sizing.D[v], params.L_max) / params.M;
+        for (double dist = distance(top, surface.points[v]) + 0.5 * step; dist <= sizing.D[v] / 2; dist += step)
+            beyond.push_back({surface.points[v] + dist * inward, v, L + 1, true, dist, step});
+    }
+    std::vector<Vec3> inside;
+    for (const OffsetPoint& p : filter_interior_points(beyond, sizing, offset)) {
+        const CGAL::Fuzzy_sphere<CGAL::Search_traits_3<Kernel>> ball(
+            Kernel::Point_3(p.position.x, p.position.y, p.position.z), 0.25 * p.spacing);
+        if (!tree.search_any_point(ball)) inside.push_back(p.position);
+    }
+    TetMesh core = mesh_core(boundary, inside);
+    result.seconds_insertion = seconds_since(t0);
+    const int32_t frozen = static_cast<int32_t>(boundary.points.size());
+    t0 = Clock::now();
+    if (params.improve) improve_core(core, frozen, params, result);
+    result.seconds_slivers = seconds_since(t0);
+
+    // The two joined.
+    TetMesh& mesh = result.mesh;
+    mesh.points = surface.points;
+    mesh.points.insert(mesh.points.end(), stack.points.begin(), stack.points.end());
+    for (size_t p = frozen; p < core.points.size(); ++p) global.push_back(stack_end + static_cast<int32_t>(p - frozen));
+    mesh.points.insert(mesh.points.end(), core.points.begin() + frozen, core.points.end());
+    mesh.tets = stack.tets;
+    for (const Tet& t : core.tets) mesh.tets.push_back({global[t[0]], global[t[1]], global[t[2]], global[t[3]]});
+    mesh.boundary_faces = surface.triangles;
+    mesh.boundary_patch = surface.triangle_patch;
+    if (mesh.boundary_patch.size() != mesh.boundary_faces.size()) mesh.boundary_patch.assign(mesh.boundary_faces.size(), 0);
+
+    // Attribution: surface points themselves, layer points their column,
+    // core points a neighbour's generator (passes over the tets until each
+    // has one; every core point is joined to the boundary through tets).
+    const size_t total = mesh.points.size();
+    const int32_t core_layer = stack.layers + 1;
+    result.point_generator.assign(total, -1);
+    result.point_layer.assign(total, core_layer);
+    result.point_filler.assign(total, 1);
+    for (int32_t v = 0; v < n; ++v) result.point_generator[v] = v, result.point_layer[v] = 0, result.point_filler[v] = 0;
+    for (size_t k = 0; k < stack.points.size(); ++k) {
+        result.point_generator[n + k] = stack.point_generator[k];
+        result.point_layer[n + k] = stack.point_layer[k];
+        result.point_filler[n + k] = 0;
+    }
+    for (bool open = true; open;) {
+        open = false;
+        for (const Tet& t : mesh.tets) {
+            int32_t known = -1;
+            for (int32_t v : t) known = std::max(known, result.point_generator[v]);
+            for (int32_t v : t)
+                if (result.point_generator[v] < 0) {
+                    if (known >= 0) result.point_generator[v] = known;
+                    else open = true;
+                }
+        }
+    }
+    result.inserted_points = static_cast<int64_t>(total) - n;
+    result.prism_groups.after_insertion = result.prism_groups.after_flips = result.prism_groups.after_slivers =
+        result.prism_groups.after_cell_passes = stack.prisms;
+
+    measure_near_wall_anisotropy(result, surface);
+    t0 = Clock::now();
+    result.after_slivers = quality_report(mesh);
+    result.before_flips = result.after_flips = result.after_slivers;
+    result.seconds_quality = seconds_since(t0);
+
+    // The layers as they ended: each of Algorithm 4's layermaking points is
+    // its column's point of the same layer, moved where its column was
+    // shortened.
+    t0 = Clock::now();
+    std::vector<InsertionFate> fates(raw.size(), InsertionFate::inserted);
+    std::vector<FinalPoint> final_points;
+    for (size_t k = 0; k < raw.size(); ++k) {
+        const OffsetPoint& p = raw[k];
+        if (p.filler || p.layer > stack.layers || stack.first[p.generator] < 0) continue;
+        final_points.push_back({static_cast<int32_t>(k), stack.points[stack.first[p.generator] + p.layer - 1]});
+    }
+    result.layers = account_layers(surface, sizing, params.M, params.L_min, raw, raw, fates, final_points,
+                                   params.layer_tolerance);
+    result.seconds_quality += seconds_since(t0);
+}
+
+// The last steps of either construction: the points renumbered for
+// locality, the face adjacency, and the checks every volume mesh passes
+// (positive tets, the surface as its boundary, the topology check).
+void finish(VolumeResult& result, const SurfaceMesh& surface, const VolumeParams& params, Clock::time_point start)
+{
+    const int32_t n = static_cast<int32_t>(surface.points.size());
+    TetMesh& mesh = result.mesh;
+    const auto t0 = Clock::now();
+    renumber_for_locality(result, n);
+    result.adjacency = tet_face_adjacency(mesh);
+    const TetMeshFacts facts = tet_mesh_facts(mesh, result.adjacency);
+    if (facts.nonpositive_tets != 0 || !facts.boundary_matches)
+        throw StageError("volume", std::to_string(facts.nonpositive_tets) +
+                                       " tets are not positive or the mesh boundary is not the surface (" +
+                                       std::to_string(facts.boundary_faces) + " boundary faces for " +
+                                       std::to_string(surface.triangles.size()) + " surface triangles)");
+    if (params.check_topology) {
+        const std::vector<int32_t> failures = topology_check_failures(mesh, n, result.adjacency);
+        if (!failures.empty())
+            throw VolumeConformityError(std::to_string(failures.size()) +
+                                            " surface nodes fail the topology check of section 2.3 (nodes " +
+                                            list_ids(failures) + "). Refine the surface there and re-run",
+                                        {}, failures);
+    }
+    result.max_non_orthogonality_deg = max_non_orthogonality_deg(mesh, result.adjacency);
+    result.seconds_checks = seconds_since(t0);
+    result.seconds_total = seconds_since(start);
+}
+
 } // namespace
 
 std::vector<int32_t> topology_check_failures(const TetMesh& mesh, int32_t surface_points)
@@ -225,16 +468,14 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
     const int32_t n = static_cast<int32_t>(surface.points.size());
     VolumeResult result;
 
+    if (params.layers == LayerMode::prisms) {
+        build_stacked_mesh(surface, sizing, params, result);
+        finish(result, surface, params, start);
+        return result;
+    }
+
     auto t0 = Clock::now();
-    OffsetParams offset;
-    offset.M = params.M;
-    offset.growth = params.growth;
-    offset.first_layer = params.first_layer;
-    offset.K = params.K;
-    offset.L_max = params.L_max;
-    offset.filter_fraction = params.filter_fraction;
-    offset.filler_filter_fraction = params.filler_filter_fraction;
-    offset.repair_normals = true;
+    const OffsetParams offset = offset_params(params);
     const std::vector<OffsetPoint> raw = offset_points(surface, sizing, offset);
     const std::vector<OffsetPoint> points = filter_interior_points(raw, sizing, offset);
     result.offset_points = static_cast<int64_t>(raw.size());
@@ -336,27 +577,7 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
     // First-layer anisotropy, as inserted.
     t0 = Clock::now();
     const int layermaking = static_cast<int>(std::floor(params.M / 2));
-    std::vector<double> first_thickness(n, std::numeric_limits<double>::quiet_NaN());
-    for (size_t p = n; p < mesh.points.size(); ++p) {
-        const int32_t g = result.point_generator[p], m = result.point_layer[p];
-        if (!result.point_filler[p] && m == 1) first_thickness[g] = distance(mesh.points[p], surface.points[g]);
-    }
-    const VertexTable neighbours = vertex_neighbours(surface);
-    result.near_wall_anisotropy.assign(n, std::numeric_limits<double>::quiet_NaN());
-    std::vector<double> finite;
-    for (int32_t i = 0; i < n; ++i) {
-        if (!(first_thickness[i] > 0) || neighbours.size(i) == 0) continue;
-        double length = 0;
-        for (const int32_t* j = neighbours.begin(i); j != neighbours.end(i); ++j)
-            length += distance(surface.points[i], surface.points[*j]);
-        result.near_wall_anisotropy[i] = length / neighbours.size(i) / first_thickness[i];
-        finite.push_back(result.near_wall_anisotropy[i]);
-    }
-    if (!finite.empty()) {
-        std::nth_element(finite.begin(), finite.begin() + finite.size() / 2, finite.end());
-        result.first_layer_anisotropy_median = finite[finite.size() / 2];
-    }
-
+    measure_near_wall_anisotropy(result, surface);
     result.before_flips = quality_report(mesh);
     result.after_flips = result.before_flips;
     result.after_slivers = result.before_flips;
@@ -472,26 +693,7 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
                                    params.layer_tolerance);
     result.seconds_quality += seconds_since(t0);
 
-    t0 = Clock::now();
-    renumber_for_locality(result, n);
-    result.adjacency = tet_face_adjacency(mesh);
-    const TetMeshFacts facts = tet_mesh_facts(mesh, result.adjacency);
-    if (facts.nonpositive_tets != 0 || !facts.boundary_matches)
-        throw StageError("volume", std::to_string(facts.nonpositive_tets) +
-                                       " tets are not positive or the mesh boundary is not the surface (" +
-                                       std::to_string(facts.boundary_faces) + " boundary faces for " +
-                                       std::to_string(surface.triangles.size()) + " surface triangles)");
-    if (params.check_topology) {
-        const std::vector<int32_t> failures = topology_check_failures(mesh, n, result.adjacency);
-        if (!failures.empty())
-            throw VolumeConformityError(std::to_string(failures.size()) +
-                                            " surface nodes fail the topology check of section 2.3 (nodes " +
-                                            list_ids(failures) + "). Refine the surface there and re-run",
-                                        {}, failures);
-    }
-    result.max_non_orthogonality_deg = max_non_orthogonality_deg(mesh, result.adjacency);
-    result.seconds_checks = seconds_since(t0);
-    result.seconds_total = seconds_since(start);
+    finish(result, surface, params, start);
     return result;
 }
 

@@ -24,7 +24,16 @@
 
 namespace scalemesh {
 
+// How the layers are built. `delaunay`: the paper's (Algorithms 4 and 5),
+// the layer points inserted into one conditional Delaunay triangulation
+// with the rest, prisms where the tets happen to fill them. `prisms`: the
+// layer points joined into prisms over every wall triangle explicitly
+// (layer_stack.h), intact by construction, and the core above them meshed
+// against the stack's top (core_mesh.h).
+enum class LayerMode { delaunay, prisms };
+
 struct VolumeParams {
+    LayerMode layers = LayerMode::delaunay;
     double K = 4.2;      // anisotropy of the first layer (FirstLayer::edge) and of the report
     double M = 7;        // element layers across a cross-section, >= 1
     double growth = 1.0; // layer growth ratio lambda_{m+1} / lambda_m, >= 1; 1 = uniform (see layer_fractions)
@@ -72,6 +81,8 @@ struct VolumeResult {
     std::vector<double> near_wall_anisotropy; // per surface node: mean incident surface edge length /
                                               // first-layer thickness; NaN without a first layer point
     int64_t offset_points = 0;   // points made by Algorithm 4
+    int64_t stack_shortened_nodes = 0; // LayerMode::prisms: wall nodes whose column was shortened (layer_stack.h)
+    int stack_rounds = 0;              // and the rounds of shortening it took
     int64_t filtered_points = 0; // removed by the interior-point filter
     int64_t inserted_points = 0; // interior points in the triangulation after insertion
     int64_t rejected_small = 0;  // final rejections for (i), tiny tets

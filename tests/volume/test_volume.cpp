@@ -14,6 +14,7 @@
 #include "sizing/feature_size.h"
 #include "smoothing/volume_conserving_smoothing.h"
 #include "volume/improve.h"
+#include "volume/layer_prisms.h"
 #include "volume/offset_points.h"
 #include "volume/quality.h"
 #include "volume/volume_mesh.h"
@@ -337,6 +338,48 @@ TEST(VolumeParallel, ImprovementInSlabsKeepsTheMeshValidAndIsTheSameOnOneOrTwoTh
         }
     }
 }
+
+// layers = "prisms": the stack over the wall and Gmsh's core above it make
+// one conforming mesh of the region, and every wall triangle carries all
+// its layers as intact prisms (three tets each, which the export merges).
+class PrismPhantom : public ::testing::TestWithParam<PhantomCase> {};
+
+TEST_P(PrismPhantom, EveryWallTriangleCarriesAllItsLayersAsPrismsInAConformingMesh)
+{
+    const PhantomCase& c = GetParam();
+    const Prepared p = prepare(c.name, c.h, c.L_min, c.L_max);
+    VolumeParams params = volume_params(p);
+    params.layers = LayerMode::prisms;
+    const VolumeResult r = build_volume_mesh(p.surface, p.size, params);
+    const TetMesh& mesh = r.mesh;
+    const TetMeshFacts facts = tet_mesh_facts(mesh);
+    EXPECT_EQ(facts.nonpositive_tets, 0);
+    EXPECT_EQ(facts.overshared_faces, 0);
+    EXPECT_TRUE(facts.boundary_matches);
+    EXPECT_EQ(mesh.boundary_faces, p.surface.triangles);
+    EXPECT_NEAR(facts.volume, signed_volume(p.surface), 1e-9 * signed_volume(p.surface));
+    for (size_t i = 0; i < p.surface.points.size(); ++i) ASSERT_EQ(mesh.points[i], p.surface.points[i]);
+    EXPECT_TRUE(topology_check_failures(mesh, int32_t(p.surface.points.size())).empty());
+    const SurfaceFacts boundary = surface_facts(mesh_boundary(mesh));
+    EXPECT_EQ(boundary.euler_characteristic, p.shape->euler_characteristic());
+
+    // Every tet is used by some cell, every point by some tet.
+    std::vector<char> used(mesh.points.size(), 0);
+    for (const Tet& t : mesh.tets)
+        for (int32_t v : t) used[v] = 1;
+    EXPECT_EQ(std::count(used.begin(), used.end(), 0), 0);
+
+    const int64_t wanted = int64_t(p.surface.triangles.size()) * int64_t(std::floor(params.M / 2));
+    EXPECT_EQ(r.prism_groups.after_cell_passes, wanted);
+    EXPECT_EQ(layer_prism_groups(mesh, r.point_generator, r.point_layer, r.point_filler), wanted);
+    const LayerPrismCells cells = layer_prism_cells(mesh, r.adjacency, r.point_generator, r.point_layer, r.point_filler);
+    EXPECT_GE(double(cells.prisms), 0.95 * double(wanted)) << cells.refused << " refused";
+}
+
+INSTANTIATE_TEST_SUITE_P(Phantoms, PrismPhantom,
+                         ::testing::Values(PhantomCase{"torus", 1.0, 0.5, 8}, PhantomCase{"shell", 0.75, 0.5, 8},
+                                           PhantomCase{"twin_tubes", 0.75, 0.5, 8}),
+                         [](const auto& info) { return info.param.name; });
 
 INSTANTIATE_TEST_SUITE_P(Phantoms, VolumePhantom,
                          ::testing::Values(PhantomCase{"sphere", 1.0, 0.5, 10}, PhantomCase{"torus", 1.0, 0.5, 8},

@@ -1,4 +1,4 @@
-#include "importers/self_intersections.h"
+#include "volume/self_intersections.h"
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Polygon_mesh_processing/self_intersections.h>

@@ -1,0 +1,269 @@
+#include "volume/core_mesh.h"
+
+#include "core/errors.h"
+
+#include <gmsh.h>
+
+#include <mutex>
+#include <unordered_map>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace scalemesh {
+namespace {
+
+std::mutex gmsh_mutex;
+
+struct PointHash {
+    size_t operator()(const Vec3& x) const
+    {
+        const std::hash<double> h;
+        return h(x.x) ^ (h(x.y) * 0x9e3779b97f4a7c15ull) ^ (h(x.z) * 0xbf58476d1ce4e5b9ull);
+    }
+};
+
+// Whether a Gmsh session is open: without one, gmsh::model::list throws or
+// lists nothing (an open session always has a model).
+bool session_open()
+{
+    std::vector<std::string> models;
+    try {
+        gmsh::model::list(models);
+    } catch (...) {
+        return false;
+    }
+    return !models.empty();
+}
+
+// A Gmsh model of our own for the length of a scope: a session of its own
+// when none is open, else a model beside the caller's, whose current model
+// and the options set through `set` come back on leaving.
+class GmshScope {
+public:
+    GmshScope()
+    {
+        own_ = !session_open();
+        if (own_) {
+            gmsh::initialize();
+        } else {
+            gmsh::model::getCurrent(previous_);
+        }
+        set("General.Terminal", 0);
+        set("General.Verbosity", 1);
+        gmsh::model::add("scalemesh core");
+    }
+    ~GmshScope()
+    {
+        try {
+            gmsh::model::remove();
+            if (own_) {
+                gmsh::finalize();
+                return;
+            }
+            for (auto it = saved_.rbegin(); it != saved_.rend(); ++it) gmsh::option::setNumber(it->first, it->second);
+            if (!previous_.empty()) gmsh::model::setCurrent(previous_);
+        } catch (...) {
+        }
+    }
+    void set(const std::string& name, double value)
+    {
+        double old = 0;
+        gmsh::option::getNumber(name, old);
+        saved_.emplace_back(name, old);
+        gmsh::option::setNumber(name, value);
+    }
+
+private:
+    bool own_ = false;
+    std::string previous_;
+    std::vector<std::pair<std::string, double>> saved_;
+};
+
+// Whether point x is inside the closed component `c` of `boundary` (by
+// the parity of the triangles a ray from x along +z crosses).
+bool encloses(const SurfaceMesh& boundary, const std::vector<int32_t>& component, int32_t c, const Vec3& x)
+{
+    bool in = false;
+    for (size_t f = 0; f < boundary.triangles.size(); ++f) {
+        if (component[f] != c) continue;
+        const Triangle& t = boundary.triangles[f];
+        const Vec3 &a = boundary.points[t[0]], &b = boundary.points[t[1]], &d = boundary.points[t[2]];
+        // Where the vertical line through x meets the triangle's plane, if
+        // inside the triangle's xy-projection (half-open edges).
+        const double area = (b.x - a.x) * (d.y - a.y) - (d.x - a.x) * (b.y - a.y);
+        if (area == 0) continue;
+        const double u = ((b.x - x.x) * (d.y - x.y) - (d.x - x.x) * (b.y - x.y)) / area;
+        const double v = ((d.x - x.x) * (a.y - x.y) - (a.x - x.x) * (d.y - x.y)) / area;
+        const double w = 1 - u - v;
+        if (u < 0 || v < 0 || w < 0 || u == 0 || v == 0) continue; // the half-open rule, roughly
+        if (u * a.z + v * b.z + w * d.z > x.z) in = !in;
+    }
+    return in;
+}
+
+std::string last_error()
+{
+    std::string error;
+    try {
+        gmsh::logger::getLastError(error);
+    } catch (...) {
+    }
+    return error;
+}
+
+} // namespace
+
+TetMesh mesh_core(const SurfaceMesh& boundary, const std::vector<Vec3>& inside)
+{
+    const size_t nb = boundary.points.size();
+    std::lock_guard<std::mutex> lock(gmsh_mutex);
+    GmshScope scope;
+    scope.set("Mesh.Algorithm3D", 1); // Delaunay
+    scope.set("Mesh.Optimize", 1);
+    scope.set("Mesh.OptimizeThreshold", 0.3);
+
+    TetMesh mesh;
+    mesh.points = boundary.points;
+    mesh.boundary_faces = boundary.triangles;
+    mesh.boundary_patch.assign(boundary.triangles.size(), 0);
+    try {
+        gmsh::logger::start();
+        // One discrete surface per component of the boundary, all sharing
+        // the node tags 1..nb; a component enclosing positive volume bounds
+        // a region of its own, one enclosing negative volume is a cavity of
+        // the smallest such region around it.
+        int32_t count = 0;
+        const std::vector<int32_t> component = triangle_components(boundary, &count);
+        std::vector<std::vector<size_t>> nodes(count);
+        std::vector<double> volume6(count, 0.0);
+        std::vector<Vec3> corner(count);
+        for (size_t f = 0; f < boundary.triangles.size(); ++f) {
+            const Triangle& t = boundary.triangles[f];
+            const int32_t c = component[f];
+            for (int32_t v : t) nodes[c].push_back(static_cast<size_t>(v) + 1);
+            volume6[c] += dot(boundary.points[t[0]], cross(boundary.points[t[1]], boundary.points[t[2]]));
+            corner[c] = boundary.points[t[0]];
+        }
+        std::vector<size_t> node_tags(nb);
+        std::vector<double> coords(3 * nb);
+        for (size_t i = 0; i < nb; ++i) {
+            node_tags[i] = i + 1;
+            coords[3 * i] = boundary.points[i].x;
+            coords[3 * i + 1] = boundary.points[i].y;
+            coords[3 * i + 2] = boundary.points[i].z;
+        }
+        std::vector<int> surfaces(count);
+        for (int32_t c = 0; c < count; ++c) {
+            surfaces[c] = gmsh::model::addDiscreteEntity(2);
+            if (c == 0) gmsh::model::mesh::addNodes(2, surfaces[c], node_tags, coords);
+            gmsh::model::mesh::addElementsByType(surfaces[c], 2, {}, nodes[c]);
+        }
+        std::vector<int> volumes;
+        std::vector<std::vector<int>> loops(count);
+        for (int32_t c = 0; c < count; ++c)
+            if (volume6[c] > 0) loops[c].push_back(gmsh::model::geo::addSurfaceLoop({surfaces[c]}));
+        for (int32_t c = 0; c < count; ++c) {
+            if (volume6[c] > 0) continue;
+            int32_t around = -1; // the smallest region whose outer surface contains this cavity
+            for (int32_t o = 0; o < count; ++o)
+                if (volume6[o] > 0 && encloses(boundary, component, o, corner[c]) &&
+                    (around < 0 || volume6[o] < volume6[around]))
+                    around = o;
+            if (around < 0) throw StageError("volume", "the core's boundary has a cavity outside every region");
+            loops[around].push_back(gmsh::model::geo::addSurfaceLoop({surfaces[c]}));
+        }
+        for (int32_t c = 0; c < count; ++c)
+            if (volume6[c] > 0) volumes.push_back(gmsh::model::geo::addVolume(loops[c]));
+        std::vector<int> embedded;
+        embedded.reserve(inside.size());
+        for (const Vec3& x : inside) embedded.push_back(gmsh::model::geo::addPoint(x.x, x.y, x.z, 0.0));
+        gmsh::model::geo::synchronize();
+        // Each point in the region that contains it.
+        if (!embedded.empty()) {
+            std::vector<std::vector<int>> in(volumes.size());
+            for (size_t k = 0; k < inside.size(); ++k) {
+                size_t r = 0;
+                for (int32_t c = 0, region = 0; c < count; ++c) {
+                    if (!(volume6[c] > 0)) continue;
+                    if (encloses(boundary, component, c, inside[k])) r = region;
+                    ++region;
+                }
+                in[r].push_back(embedded[k]);
+            }
+            for (size_t r = 0; r < volumes.size(); ++r)
+                if (!in[r].empty()) gmsh::model::mesh::embed(0, in[r], 3, volumes[r]);
+        }
+        gmsh::model::mesh::generate(3);
+
+        // Gmsh numbers the nodes its own way: each is known by where it is,
+        // the boundary's and the embedded ones (which it does not move), and
+        // any other is a point it added.
+        std::unordered_map<Vec3, int32_t, PointHash> id_of;
+        for (size_t i = 0; i < mesh.points.size(); ++i) id_of.emplace(mesh.points[i], static_cast<int32_t>(i));
+        for (const Vec3& x : inside) {
+            id_of.emplace(x, static_cast<int32_t>(mesh.points.size()));
+            mesh.points.push_back(x);
+        }
+        std::vector<size_t> tags;
+        std::vector<double> xyz, parametric;
+        gmsh::model::mesh::getNodes(tags, xyz, parametric, -1, -1, false, false);
+        std::unordered_map<size_t, int32_t> id_of_tag;
+        for (size_t k = 0; k < tags.size(); ++k) {
+            const Vec3 x{xyz[3 * k], xyz[3 * k + 1], xyz[3 * k + 2]};
+            const auto [it, added] = id_of.emplace(x, static_cast<int32_t>(mesh.points.size()));
+            if (added) mesh.points.push_back(x);
+            id_of_tag[tags[k]] = it->second;
+        }
+        std::vector<size_t> elements, corners;
+        gmsh::model::mesh::getElementsByType(4, elements, corners);
+        mesh.tets.reserve(elements.size());
+        for (size_t e = 0; e < elements.size(); ++e) {
+            Tet tet;
+            for (int k = 0; k < 4; ++k) {
+                const auto it = id_of_tag.find(corners[4 * e + k]);
+                if (it == id_of_tag.end()) throw StageError("volume", "Gmsh's core has a tet on an unknown node");
+                tet[k] = it->second;
+            }
+            const Vec3 &a = mesh.points[tet[0]], &b = mesh.points[tet[1]], &c = mesh.points[tet[2]],
+                       &d = mesh.points[tet[3]];
+            if (tet_volume6(a, b, c, d) < 0) std::swap(tet[2], tet[3]);
+            mesh.tets.push_back(tet);
+        }
+        gmsh::logger::stop();
+    } catch (const std::string& message) {
+        throw StageError("volume", "Gmsh could not mesh the core inside the prism layers: " + message);
+    } catch (const StageError&) {
+        throw;
+    } catch (...) {
+        throw StageError("volume", "Gmsh could not mesh the core inside the prism layers: " + last_error());
+    }
+    // Points Gmsh could not insert (it reports them and goes on) are left out.
+    std::vector<char> used(mesh.points.size(), 0);
+    for (const Tet& t : mesh.tets)
+        for (int32_t v : t) used[v] = 1;
+    std::vector<int32_t> renumber(mesh.points.size(), -1);
+    for (size_t i = 0; i < nb; ++i) renumber[i] = static_cast<int32_t>(i);
+    size_t kept = nb;
+    for (size_t i = nb; i < mesh.points.size(); ++i)
+        if (used[i]) {
+            mesh.points[kept] = mesh.points[i];
+            renumber[i] = static_cast<int32_t>(kept++);
+        }
+    mesh.points.resize(kept);
+    for (Tet& t : mesh.tets)
+        for (int32_t& v : t) v = renumber[v];
+    if (mesh.tets.empty())
+        throw StageError("volume", "Gmsh made no tets in the core inside the prism layers" +
+                                       (last_error().empty() ? std::string() : ": " + last_error()));
+    // Every boundary triangle a face of exactly one tet, every other face of two.
+    const TetMeshFacts facts = tet_mesh_facts(mesh, tet_face_adjacency(mesh));
+    if (facts.nonpositive_tets != 0 || !facts.boundary_matches)
+        throw StageError("volume", "Gmsh's core does not match the prism layers' top: " +
+                                       std::to_string(facts.nonpositive_tets) + " flat or inverted tets, " +
+                                       std::to_string(facts.boundary_faces) + " boundary faces for " +
+                                       std::to_string(boundary.triangles.size()) + " triangles");
+    return mesh;
+}
+
+} // namespace scalemesh

@@ -1,0 +1,35 @@
+#pragma once
+// The core of a volume mesh with prism layers: the region above the layer
+// stack (layer_stack.h), bounded by the stack's top triangles and the inner
+// parts of the openings' caps, filled with tets that keep that boundary
+// triangle for triangle. Gmsh's 3D Delaunay mesher does the filling (its
+// boundary recovery keeps a boundary whose triangles are all recovered,
+// adding no point on it), with its own optimisation; the caller's cell
+// passes follow with the boundary frozen.
+
+#include "core/surface_mesh.h"
+#include "core/tet_mesh.h"
+
+#include <vector>
+
+namespace scalemesh {
+
+// Tets filling the region `boundary` encloses (closed, oriented outwards,
+// no crossing triangles). On return, mesh.points starts with
+// boundary.points unchanged (points Gmsh adds inside follow),
+// mesh.boundary_faces == boundary.triangles, every tet is positively
+// oriented and every boundary triangle is a face of exactly one tet.
+// Throws StageError naming what Gmsh reported when it cannot mesh the
+// region or changes its boundary.
+//
+// Runs in a Gmsh session of its own when none is open; inside a caller's
+// session (the library's mesh_gmsh_model, Python) it works on a model of
+// its own, then removes it and makes the caller's model current again, with
+// the options it set restored. One call at a time (Gmsh is not reentrant).
+// `inside` are points to mesh with (embedded in the volume, after the
+// boundary's in mesh.points, in their order); each must lie strictly inside
+// the region. Gmsh 4.8 adds no point of its own to a volume bounded by a
+// discrete surface, so these are the core's points.
+TetMesh mesh_core(const SurfaceMesh& boundary, const std::vector<Vec3>& inside = {});
+
+} // namespace scalemesh

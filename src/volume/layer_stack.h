@@ -1,0 +1,78 @@
+#pragma once
+// Prism layers built explicitly (the volume stage's `prisms` layers): over
+// every wall triangle, a stack of floor(M/2) prisms between the columns of
+// its three nodes' layermaking points (Algorithm 4's points and heights,
+// layer_columns), each prism cut into three tets by the index rule, so that
+// every prism is intact by construction. The region above the stack (the
+// core) is meshed apart (core_mesh.h), against the stack's top triangles.
+//
+// The index rule (Dompierre et al., IMR 1999): the side quad of two columns
+// a < b between layers m - 1 and m is cut by the diagonal from a's point of
+// layer m - 1 to b's point of layer m. Both prisms that share a quad cut it
+// the same way, and no prism gets the cyclic (Schoenhardt) cut, since its
+// lowest column starts two diagonals.
+//
+// Where columns would make a poor prism (a tet of its split below a fraction
+// of the prism's volume, or a prism not star-shaped from its centroid as a
+// cell must be: normals converging or crossing) or stacks would collide
+// (top triangles crossing), whole columns are shortened, keeping their
+// number of layers, as Netgen's growth limiter does: every wall node keeps
+// all its layers. The first layer keeps its thickness (the wall-cell
+// distance), and the others grow less (shortened_column).
+
+#include "core/surface_mesh.h"
+#include "core/tet_mesh.h"
+#include "volume/offset_points.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace scalemesh {
+
+struct LayerStackParams {
+    double min_tet_fraction = 0.05; // each tet of a prism's split has at least this fraction of the prism's volume
+    double shrink = 0.8;            // a column of a poor prism is shortened by this factor a round
+    double slope = 0.3;             // a column's height fraction exceeds a neighbour's by at most this
+    int max_rounds = 40;            // rounds of shortening at most
+};
+
+struct LayerStack {
+    int32_t layers = 0;        // prisms per wall triangle (floor(M/2))
+    int32_t surface_points = 0; // n: point ids below n are the surface's
+    // The layer points, node by node: point n + first[v] + m - 1 is layer m of
+    // wall node v (m = 1..layers); first[v] = -1 for a node without a column.
+    std::vector<Vec3> points;
+    std::vector<int32_t> first;
+    std::vector<int32_t> point_generator, point_layer; // per layer point
+    std::vector<double> scale; // per surface node: the fraction of its column's height kept (1: all)
+    std::vector<Tet> tets;     // three per prism, positively oriented, over ids < n + points.size()
+    std::vector<Triangle> top; // per wall triangle, in order: its prism stack's top, oriented as the wall
+                               // triangle (outward from the core the stack leaves)
+    std::vector<int32_t> top_of; // per top triangle: its wall triangle
+    int64_t prisms = 0;
+    int64_t shortened_nodes = 0; // nodes whose column is below its full height
+    int rounds = 0;              // rounds of shortening
+};
+
+// The stack over the triangles of patch 0 (every other patch is an opening
+// and gets no layers). Every node of a wall triangle needs a column
+// (columns.dist finite), else InputError. Columns start at their full
+// height cut to D / 2 (d / 2 for a repaired normal), proportions kept.
+// Throws StageError when some prism is still poor after max_rounds.
+LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizing, const LayerColumns& columns,
+                             const LayerStackParams& params = {});
+
+// A column's distances `dist` (layers entries, increasing) shortened to
+// `scale` (<= 1) of its height: the first layer as thick as before, the
+// others growing geometrically to the new height; all layers equal where
+// the first no longer fits that way. `dist` itself for scale >= 1.
+std::vector<double> shortened_column(const double* dist, int32_t layers, double scale);
+
+// The three tets of the prism with bottom `p` and top `q` (point ids, in
+// the orientation of the wall triangle p, whose normal points away from q),
+// by the index rule on the columns' ids `column`, each ordered to be
+// positive in a right prism over p.
+std::array<Tet, 3> prism_split(const std::array<int32_t, 3>& p, const std::array<int32_t, 3>& q,
+                               const std::array<int32_t, 3>& column);
+
+} // namespace scalemesh

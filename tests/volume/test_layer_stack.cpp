@@ -1,0 +1,108 @@
+// The explicit prism layers: the index rule's split of a prism and the
+// shortening of a column (volume/layer_stack.h).
+
+#include "core/tet_mesh.h"
+#include "volume/layer_stack.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <set>
+#include <vector>
+
+namespace scalemesh {
+namespace {
+
+// The faces of `tets` whose three points are all in `quad`, as sorted triples.
+std::set<std::array<int32_t, 3>> faces_on(const std::array<Tet, 3>& tets, const std::set<int32_t>& quad)
+{
+    std::set<std::array<int32_t, 3>> out;
+    for (const Tet& t : tets)
+        for (int k = 0; k < 4; ++k) {
+            std::array<int32_t, 3> f = tet_face(t, k);
+            if (!quad.count(f[0]) || !quad.count(f[1]) || !quad.count(f[2])) continue;
+            std::sort(f.begin(), f.end());
+            out.insert(f);
+        }
+    return out;
+}
+
+TEST(PrismSplit, EveryOrderOfTheColumnsGivesThreePositiveTetsFillingThePrism)
+{
+    // An oblique prism over a wall triangle whose normal is +z, the layer
+    // below it: points 0..2 the bottom, 3..5 the top (its side quads are
+    // planar, so every split fills the same volume).
+    const Vec3 shift{0.3, 0.2, -1};
+    const std::vector<Vec3> at = {{0, 0, 0}, {2, 0, 0}, {0, 2, 0}, Vec3{0, 0, 0} + shift, Vec3{2, 0, 0} + shift,
+                                  Vec3{0, 2, 0} + shift};
+    std::array<int32_t, 3> column{0, 1, 2};
+    do {
+        const std::array<Tet, 3> tets = prism_split({0, 1, 2}, {3, 4, 5}, column);
+        double total = 0;
+        for (const Tet& t : tets) {
+            const double v = tet_volume6(at[t[0]], at[t[1]], at[t[2]], at[t[3]]);
+            EXPECT_GT(v, 0) << "columns " << column[0] << column[1] << column[2];
+            total += v;
+        }
+        // The union's volume is the prism's: base area 2 times height 1,
+        // six times over.
+        EXPECT_NEAR(total, 12.0, 1e-12);
+        // Every point of the prism is a corner of some tet, and each tet
+        // has points of both ends (no tet lies in one end).
+        std::set<int32_t> used;
+        for (const Tet& t : tets) {
+            used.insert(t.begin(), t.end());
+            const int bottom = int(std::count_if(t.begin(), t.end(), [](int32_t v) { return v < 3; }));
+            EXPECT_GE(bottom, 1);
+            EXPECT_LE(bottom, 3);
+        }
+        EXPECT_EQ(used.size(), 6u);
+    } while (std::next_permutation(column.begin(), column.end()));
+}
+
+TEST(PrismSplit, TwoPrismsSharingASideCutItAlike)
+{
+    // Wall triangles (a, b, c) and (b, a, d) share the edge a-b; their
+    // layer points are a + 10, b + 10, ... Whatever the third columns'
+    // ids, both prisms cut the quad (a, b, b', a') along the same diagonal:
+    // from the lower column's bottom to the higher's top.
+    for (const auto& [c, d] : std::vector<std::pair<int32_t, int32_t>>{{0, 5}, {5, 0}, {9, 8}, {2, 3}}) {
+        const int32_t a = 4, b = 6;
+        const std::array<Tet, 3> left = prism_split({a, b, c}, {a + 10, b + 10, c + 10}, {a, b, c});
+        const std::array<Tet, 3> right = prism_split({b, a, d}, {b + 10, a + 10, d + 10}, {b, a, d});
+        const std::set<int32_t> quad{a, b, a + 10, b + 10};
+        const auto on_left = faces_on(left, quad), on_right = faces_on(right, quad);
+        EXPECT_EQ(on_left, on_right) << "third columns " << c << ", " << d;
+        ASSERT_EQ(on_left.size(), 2u);
+        EXPECT_TRUE(on_left.count({a, b, b + 10})) << "the diagonal runs from " << a << " to " << b + 10;
+        EXPECT_TRUE(on_left.count({a, a + 10, b + 10}));
+    }
+}
+
+TEST(LayerStack, AShortenedColumnKeepsItsFirstLayerAndEndsAtTheNewHeight)
+{
+    const std::vector<double> dist = {0.1, 0.35, 0.8}; // graded: 0.1, 0.25, 0.45
+    EXPECT_EQ(shortened_column(dist.data(), 3, 1.0), dist);
+    double ratio = 1e300;
+    for (double scale : {0.9, 0.6, 0.4}) {
+        const std::vector<double> out = shortened_column(dist.data(), 3, scale);
+        ASSERT_EQ(out.size(), 3u);
+        EXPECT_NEAR(out[0], 0.1, 1e-12) << scale;
+        EXPECT_DOUBLE_EQ(out[2], scale * 0.8) << scale;
+        // Geometric from the first layer, growing less the shorter it is.
+        const double r = (out[1] - out[0]) / out[0];
+        EXPECT_NEAR((out[2] - out[1]) / (out[1] - out[0]), r, 1e-9) << scale;
+        EXPECT_GE(r, 1.0) << scale;
+        EXPECT_LT(r, ratio) << scale;
+        ratio = r;
+    }
+    // Too short for the first layer's thickness to grow from: equal layers.
+    const std::vector<double> flat = shortened_column(dist.data(), 3, 0.3);
+    EXPECT_NEAR(flat[0], 0.08, 1e-12);
+    EXPECT_NEAR(flat[1], 0.16, 1e-12);
+    EXPECT_NEAR(flat[2], 0.24, 1e-12);
+}
+
+} // namespace
+} // namespace scalemesh
