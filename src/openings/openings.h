@@ -187,6 +187,15 @@ struct RingParams {
     double K = 4.2;                // the first layer's anisotropy with FirstLayer::edge
     double L_max = 0;              // mm, filler spacing min(D, L_max) / M
     double filter_fraction = 0.3;  // a point closer than this fraction of its spacing to a kept one is dropped
+    // For prism layers ([volume] layers = "prisms"): each rim node's layer
+    // points are the column its prisms stand on (layer_stack.h), laid
+    // exactly (no shift, no filter, shortened as the stack shortens a column
+    // that would pass D / 2), the rings joined by the quads of the rim
+    // prisms' sides, each cut by the index rule as the prisms cut it; only
+    // the region inside the last ring is triangulated with the filler points.
+    std::vector<int32_t>* prism_columns = nullptr; // filled, when given: per node of the result x floor(M/2),
+                                                   // the cap node of each layer of a rim node's column, -1
+                                                   // for every other node
 };
 
 // Rebuilds every cap of `surface` (sized by cap_feature_size) from its rim:

@@ -2,6 +2,7 @@
 
 #include "core/errors.h"
 #include "openings/plane_triangulation.h"
+#include "volume/layer_stack.h"
 #include "volume/offset_points.h"
 
 #include <algorithm>
@@ -12,6 +13,13 @@
 namespace scalemesh {
 
 namespace {
+
+// RingParams::prism_columns: each triangle of a rim prism's side quad in a
+// cap holds at least this share of the quad's area. A quad that tapers more
+// (the rings converging, as at the last ring of a tube's cap) makes a prism
+// whose index-rule split has a tet of under 5% of its volume (layer_stack.h
+// refuses those), which the cap's fixed columns could not mend.
+constexpr double kMinCapShare = 0.2;
 
 // Largest tangential shift of a cap point, as a fraction of its spacing.
 constexpr double kTangentialShift = 0.1;
@@ -75,6 +83,187 @@ double segment_distance(double px, double py, double ax, double ay, double bx, d
     return std::hypot(px - ax - s * ex, py - ay - s * ey);
 }
 
+// RingParams::prism_columns: cap `cap` rebuilt around the columns of its
+// rim nodes. Each rim node's layermaking points, along its in-plane normal
+// at the distances of layer_columns (shortened_column where the last would
+// pass D / 2, as build_layer_stack starts a column), become cap nodes; the
+// rings are joined rim edge by rim edge by the side quads of the rim
+// prisms, each cut from the lower column's point below to the higher
+// column's point above (the index rule on the new ids); the region inside
+// the last ring is triangulated with the filler points inside it.
+template <class AddPoint>
+void prism_cap(const SurfaceMesh& surface, const Cap& cap, const openings::PlaneBasis& basis,
+               const std::vector<std::vector<int32_t>>& loops, const FeatureSize& rim_sizing,
+               const OffsetParams& offset, int32_t L, double filter_fraction, const std::vector<int32_t>& index,
+               const std::vector<OffsetPoint>& candidates, AddPoint&& add_point, const FeatureSize& sizing,
+               SurfaceMesh& result, std::vector<std::array<int32_t, 2>>& column_of, std::vector<int32_t>& column_node)
+{
+    const LayerColumns columns = layer_columns(surface, rim_sizing, offset);
+    const auto in_plane = [&](Vec3 x) {
+        x -= cap.plane.signed_distance(x) * cap.plane.normal;
+        return x - cap.plane.signed_distance(x) * cap.plane.normal;
+    };
+    // Each rim node's column in plane coordinates: its node, then its
+    // layer points. Converging in-plane normals would cross the rings (at
+    // the last ring of a tube's cap, a few degrees of noise in the normals
+    // is enough): as build_layer_stack does in 3D, the columns of poor or
+    // crossing quads are shortened (by 0.8 a round, neighbours along the
+    // rim within 0.3 of each other), the first layer kept.
+    std::map<int32_t, double> scale;
+    for (const auto& loop : loops)
+        for (int32_t r : loop) {
+            if (L == 0 || !(columns.dist[size_t(r) * L] > 0))
+                throw StageError("openings", "rim node " + std::to_string(r) + " of cap '" + cap.name +
+                                                 "' has no layer column in the cap's plane");
+            const double top = columns.dist[size_t(r) * L + L - 1], reach = sizing.D[r] / 2;
+            scale[r] = reach > 0 && top > reach ? reach / top : 1.0;
+        }
+    using UV = std::array<double, 2>;
+    std::map<int32_t, std::vector<UV>> at; // per rim node: its column in (u, v), m = 0..L
+    const auto place = [&] {
+        for (auto& [r, s] : scale) {
+            const std::vector<double> dist = shortened_column(&columns.dist[size_t(r) * L], L, s);
+            std::vector<UV>& column = at[r];
+            column.assign(1, UV{basis.u(surface.points[r]), basis.v(surface.points[r])});
+            for (int32_t m = 1; m <= L; ++m) {
+                const Vec3 x = in_plane(surface.points[r] + dist[m - 1] * columns.inward[r]);
+                column.push_back({basis.u(x), basis.v(x)});
+            }
+        }
+    };
+    const auto area2 = [](const UV& a, const UV& b, const UV& c) {
+        return (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]);
+    };
+    const auto segments_cross = [&](const UV& a, const UV& b, const UV& c, const UV& d) {
+        return area2(a, b, c) * area2(a, b, d) < 0 && area2(c, d, a) * area2(c, d, b) < 0;
+    };
+    for (int round = 0;; ++round) {
+        place();
+        std::map<int32_t, char> poor;
+        for (const auto& loop : loops) {
+            double winding = 0; // twice the loop's signed area: > 0 counter-clockwise
+            for (size_t k = 0; k < loop.size(); ++k)
+                winding += area2({0, 0}, at[loop[k]][0], at[loop[(k + 1) % loop.size()]][0]);
+            const double sign = winding > 0 ? 1.0 : -1.0;
+            for (size_t k = 0; k < loop.size(); ++k) {
+                const int32_t a = loop[k], b = loop[(k + 1) % loop.size()];
+                const std::vector<UV>&A = at[a], &B = at[b];
+                for (int32_t m = 1; m <= L; ++m) {
+                    const UV q[4] = {A[m - 1], B[m - 1], B[m], A[m]};
+                    const double quad = sign * (area2(q[0], q[1], q[2]) + area2(q[0], q[2], q[3]));
+                    const double t1 = sign * (index[a] < index[b] ? area2(q[0], q[1], q[2]) : area2(q[1], q[2], q[3]));
+                    const double t2 = sign * (index[a] < index[b] ? area2(q[0], q[2], q[3]) : area2(q[1], q[3], q[0]));
+                    if (!(quad > 0) || t1 < kMinCapShare * quad || t2 < kMinCapShare * quad) poor[a] = poor[b] = 1;
+                }
+                // The last ring's segment against the others of its loop.
+                for (size_t j = k + 2; j < loop.size(); ++j) {
+                    if ((j + 1) % loop.size() == k) continue;
+                    const int32_t c = loop[j], d = loop[(j + 1) % loop.size()];
+                    if (segments_cross(A[L], B[L], at[c][L], at[d][L])) poor[a] = poor[b] = poor[c] = poor[d] = 1;
+                }
+            }
+        }
+        if (poor.empty()) break;
+        if (round == 40)
+            throw StageError("openings", "the layer columns of cap '" + cap.name +
+                                             "' still cross in its plane after 40 rounds of shortening");
+        for (const auto& [r, flag] : poor) scale[r] *= 0.8;
+        for (bool changed = true; changed;) {
+            changed = false;
+            for (const auto& loop : loops)
+                for (size_t k = 0; k < loop.size(); ++k)
+                    for (const int32_t other : {loop[(k + 1) % loop.size()], loop[(k + loop.size() - 1) % loop.size()]})
+                        if (scale[loop[k]] > scale[other] + 0.3) scale[loop[k]] = scale[other] + 0.3, changed = true;
+        }
+    }
+
+    // The columns as cap nodes: ring[r][m], new ids (m = 0 the node).
+    std::map<int32_t, std::vector<int32_t>> ring;
+    std::vector<double> u, v;   // plane coordinates of the local points
+    std::vector<int32_t> ids;   // their new ids
+    std::vector<std::vector<int32_t>> inner_loops; // local ids of the last ring
+    for (const auto& loop : loops) {
+        std::vector<int32_t> last;
+        for (int32_t r : loop) {
+            const std::vector<double> dist = shortened_column(&columns.dist[size_t(r) * L], L, scale[r]);
+            std::vector<int32_t>& column = ring[r];
+            column.push_back(index[r]);
+            for (int32_t m = 1; m <= L; ++m) {
+                const Vec3 x = in_plane(surface.points[r] + dist[m - 1] * columns.inward[r]);
+                column.push_back(add_point(x, sizing.D[r], std::numeric_limits<double>::infinity(), sizing.d[r],
+                                           cap.plane.normal, 0));
+                column_of.push_back({index[r], m});
+                column_node.push_back(column.back());
+            }
+            last.push_back(static_cast<int32_t>(ids.size()));
+            ids.push_back(column.back());
+            u.push_back(basis.u(result.points[column.back()]));
+            v.push_back(basis.v(result.points[column.back()]));
+        }
+        inner_loops.push_back(std::move(last));
+    }
+    const auto add_triangle = [&](int32_t a, int32_t b, int32_t c) {
+        const Vec3 &pa = result.points[a], &pb = result.points[b], &pc = result.points[c];
+        const double area = (basis.u(pb) - basis.u(pa)) * (basis.v(pc) - basis.v(pa)) -
+                            (basis.u(pc) - basis.u(pa)) * (basis.v(pb) - basis.v(pa));
+        if (area > 0) result.triangles.push_back({a, b, c});
+        else result.triangles.push_back({a, c, b});
+        result.triangle_patch.push_back(cap.patch);
+    };
+    // The annulus: quads (a_{m-1}, b_{m-1}, b_m, a_m) between consecutive rim nodes.
+    for (const auto& loop : loops)
+        for (size_t k = 0; k < loop.size(); ++k) {
+            const std::vector<int32_t>& A = ring[loop[k]];
+            const std::vector<int32_t>& B = ring[loop[(k + 1) % loop.size()]];
+            const bool a_lower = A[0] < B[0];
+            const std::vector<int32_t>& lo = a_lower ? A : B;
+            const std::vector<int32_t>& hi = a_lower ? B : A;
+            for (int32_t m = 1; m <= L; ++m) {
+                add_triangle(lo[m - 1], hi[m - 1], hi[m]);
+                add_triangle(lo[m - 1], hi[m], lo[m]);
+            }
+        }
+    // Inside the last ring: the filler points well inside it, then a
+    // constrained Delaunay triangulation.
+    const auto inside = [&](double px, double py) {
+        bool in = false;
+        for (const auto& loop : inner_loops)
+            for (size_t k = 0; k < loop.size(); ++k) {
+                const int32_t a = loop[k], b = loop[(k + 1) % loop.size()];
+                if ((v[a] > py) != (v[b] > py) && px < u[a] + (py - v[a]) * (u[b] - u[a]) / (v[b] - v[a])) in = !in;
+            }
+        return in;
+    };
+    const auto ring_distance = [&](double px, double py) {
+        double best = std::numeric_limits<double>::infinity();
+        for (const auto& loop : inner_loops)
+            for (size_t k = 0; k < loop.size(); ++k) {
+                const int32_t a = loop[k], b = loop[(k + 1) % loop.size()];
+                best = std::min(best, segment_distance(px, py, u[a], v[a], u[b], v[b]));
+            }
+        return best;
+    };
+    const size_t ring_count = ids.size();
+    std::vector<double> spacing;
+    for (const OffsetPoint& p : candidates) {
+        if (!p.filler) continue;
+        const Vec3 x = in_plane(p.position);
+        const double px = basis.u(x), py = basis.v(x), radius = filter_fraction * p.spacing;
+        if (!inside(px, py) || ring_distance(px, py) < std::max(radius, 0.5 * p.spacing)) continue;
+        bool crowded = false;
+        for (size_t k = ring_count; k < ids.size() && !crowded; ++k)
+            crowded = std::hypot(u[k] - px, v[k] - py) < filter_fraction * std::min(p.spacing, spacing[k - ring_count]);
+        if (crowded) continue;
+        ids.push_back(add_point(x, sizing.D[p.generator], std::numeric_limits<double>::infinity(),
+                                sizing.d[p.generator], cap.plane.normal, 0));
+        spacing.push_back(p.spacing);
+        u.push_back(px);
+        v.push_back(py);
+    }
+    for (const auto& piece : openings::triangulate_loops(u, v, inner_loops, "openings"))
+        for (const auto& t : piece.triangles) add_triangle(ids[t[0]], ids[t[1]], ids[t[2]]);
+}
+
 } // namespace
 
 SurfaceMesh ring_caps(const SurfaceMesh& surface, const std::vector<Cap>& caps, FeatureSize& sizing,
@@ -121,6 +310,9 @@ SurfaceMesh ring_caps(const SurfaceMesh& surface, const std::vector<Cap>& caps, 
     offset.L_max = params.L_max;
     offset.first_layer = params.first_layer;
     offset.K = params.K;
+    const int32_t L = static_cast<int32_t>(std::floor(params.M / 2));
+    std::vector<std::array<int32_t, 2>> column_of; // (rim node's new id, layer) -> cap node, as pairs
+    std::vector<int32_t> column_node;
     for (const Cap& cap : caps) {
         const std::vector<std::vector<int32_t>> loops = patch_loops(surface, cap.patch);
         if (loops.empty()) throw StageError("openings", "cap '" + cap.name + "' has no faces left");
@@ -169,6 +361,11 @@ SurfaceMesh ring_caps(const SurfaceMesh& surface, const std::vector<Cap>& caps, 
             return best;
         };
 
+        if (params.prism_columns) {
+            prism_cap(surface, cap, basis, loops, rim_sizing, offset, L, params.filter_fraction, index, candidates,
+                      add_point, sizing, result, column_of, column_node);
+            continue;
+        }
         // Points of neighbouring rim nodes at the same layer make isosceles
         // trapezoids with them, four points on a circle, whose diagonal the
         // volume stage's 3D Delaunay triangulation would choose by its own
@@ -213,6 +410,11 @@ SurfaceMesh ring_caps(const SurfaceMesh& surface, const std::vector<Cap>& caps, 
             }
     }
     require_closed_manifold(result, "the surface with its caps rebuilt");
+    if (params.prism_columns) {
+        params.prism_columns->assign(result.points.size() * size_t(L), -1);
+        for (size_t k = 0; k < column_of.size(); ++k)
+            (*params.prism_columns)[size_t(column_of[k][0]) * L + column_of[k][1] - 1] = column_node[k];
+    }
     sizing = std::move(out);
     return result;
 }

@@ -441,9 +441,6 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
     if (threads < 0 || threads > 1024)
         throw InputError(run.where("threads") + " is out of range", "give 0 (all cores) or a thread count");
     config.threads = static_cast<int>(threads);
-    if (config.layers == LayerMode::prisms && !config.openings.empty())
-        throw InputError(source + ": [volume] layers = \"prisms\" does not yet mesh a case with [[openings]]",
-                         "use [volume] layers = \"delaunay\" (the default) for this case");
     return config;
 }
 

@@ -721,12 +721,14 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
                 // from its rim's layer points (section 3's layers across
                 // the opening).
                 run.remeshed->sizing = cap_feature_size(run.remeshed->surface, run.caps, remesh.sizing);
-                run.remeshed->surface = ring_caps(run.remeshed->surface, run.caps, run.remeshed->sizing,
-                                                  {.M = config.M,
-                                                  .growth = config.growth,
-                                                  .first_layer = config.first_layer,
-                                                  .K = config.K,
-                                                  .L_max = run.L_max});
+                run.remeshed->surface =
+                    ring_caps(run.remeshed->surface, run.caps, run.remeshed->sizing,
+                              {.M = config.M,
+                               .growth = config.growth,
+                               .first_layer = config.first_layer,
+                               .K = config.K,
+                               .L_max = run.L_max,
+                               .prism_columns = config.layers == LayerMode::prisms ? &volume.rim_columns : nullptr});
             }
             const SurfaceFacts facts = surface_facts(run.remeshed->surface);
             std::ostringstream summary;

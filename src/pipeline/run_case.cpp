@@ -376,6 +376,7 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
                             {"offset_points", v.offset_points},
                             {"stack_shortened_nodes", v.stack_shortened_nodes},
                             {"stack_rounds", v.stack_rounds},
+                            {"stack_borrowed_columns", v.stack_borrowed_columns},
                             {"flips_3_2", v.flips_32},
                             {"flips_2_3", v.flips_23},
                             {"flips_4_4", v.flips_44},

@@ -42,7 +42,7 @@ namespace {
 // Whether the split of a prism is good: each tet positive and at least
 // `fraction` of the three's volume, and the prism star-shaped from its
 // centroid as the export asks of a prism cell (layer_prisms.h).
-bool good_split(const std::array<Tet, 3>& tets, const std::vector<Vec3>& at, double fraction)
+bool good_split(const std::array<Tet, 3>& tets, const std::vector<Vec3>& at, double fraction, bool star = true)
 {
     double v[3], total = 0;
     Vec3 centroid;
@@ -53,6 +53,7 @@ bool good_split(const std::array<Tet, 3>& tets, const std::vector<Vec3>& at, dou
         centroid += v[k] * (at[t[0]] + at[t[1]] + at[t[2]] + at[t[3]]) / 4;
     }
     if (!(total > 0) || v[0] < fraction * total || v[1] < fraction * total || v[2] < fraction * total) return false;
+    if (!star) return true;
     centroid = centroid / total;
     // The prism's faces: the tets' faces not shared between two of them.
     std::array<Triangle, 12> faces;
@@ -114,22 +115,64 @@ LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizi
     for (size_t f = 0; f < surface.triangles.size(); ++f)
         if (!patched || surface.triangle_patch[f] == 0) walls.push_back(static_cast<int32_t>(f));
 
-    // Columns of the wall nodes, numbered in node order.
+    // Columns of the wall nodes, numbered in node order; a rim node's column
+    // is its cap's nodes.
+    if (!params.rim_columns.empty() && params.rim_columns.size() != size_t(n) * L)
+        throw InputError("volume: the rim columns do not match the surface", "take them from ring_caps");
+    stack.rim_columns = params.rim_columns;
+    const auto fixed = [&](int32_t v) { return !params.rim_columns.empty() && params.rim_columns[size_t(v) * L] >= 0; };
     stack.first.assign(n, -1);
     for (int32_t f : walls)
         for (int32_t v : surface.triangles[f]) stack.first[v] = 0;
     int32_t count = 0;
     for (int32_t v = 0; v < n; ++v) {
         if (stack.first[v] < 0) continue;
-        if (L > 0 && !(columns.dist[size_t(v) * L + L - 1] > 0))
-            throw InputError("volume: wall node " + std::to_string(v) +
-                                 " has no layer column (its normal could not be made to point into the volume)",
-                             "use [volume] layers = \"delaunay\", which leaves such a node without layers, or "
-                             "smooth the surface more");
+        if (L > 0 && fixed(v)) {
+            stack.first[v] = -1;
+            continue;
+        }
         stack.first[v] = count;
         count += L;
     }
     stack.points.resize(count);
+    if (L == 0) return stack;
+
+    // A wall node whose normal could not be made to point into the volume
+    // (no column of its own) borrows one: the mean direction and distances
+    // of its neighbours' columns, passed on from node to node; the rounds
+    // below shorten it where that makes poor prisms.
+    const VertexTable neighbours = vertex_neighbours(surface);
+    LayerColumns own = columns;
+    const auto has_column = [&](int32_t v) { return own.dist[size_t(v) * L + L - 1] > 0; };
+    for (bool missing = true; missing;) {
+        missing = false;
+        bool lent = false;
+        for (int32_t v = 0; v < n; ++v) {
+            if (stack.first[v] < 0 || has_column(v)) continue;
+            Vec3 direction;
+            std::vector<double> dist(L, 0.0);
+            int count_from = 0;
+            for (const int32_t* u = neighbours.begin(v); u != neighbours.end(v); ++u) {
+                if (!has_column(*u) || stack.first[*u] < 0) continue;
+                direction += own.inward[*u];
+                for (int32_t m = 0; m < L; ++m) dist[m] += own.dist[size_t(*u) * L + m];
+                ++count_from;
+            }
+            if (count_from == 0 || !(norm2(direction) > 0)) {
+                missing = true;
+                continue;
+            }
+            own.inward[v] = normalized(direction);
+            for (int32_t m = 0; m < L; ++m) own.dist[size_t(v) * L + m] = dist[m] / count_from;
+            ++stack.borrowed_columns;
+            lent = true;
+        }
+        if (missing && !lent)
+            throw InputError("volume: some wall nodes have no layer column, nor a neighbour with one (their normals "
+                             "could not be made to point into the volume)",
+                             "use [volume] layers = \"delaunay\", which leaves such nodes without layers, or smooth "
+                             "the surface more");
+    }
     stack.point_generator.resize(count);
     stack.point_layer.resize(count);
     for (int32_t v = 0; v < n; ++v)
@@ -137,28 +180,27 @@ LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizi
             stack.point_generator[stack.first[v] + m - 1] = v;
             stack.point_layer[stack.first[v] + m - 1] = m;
         }
-    if (L == 0) return stack;
-
     // Each column starts at its full height, cut to half the local diameter.
     stack.scale.assign(n, 1.0);
     for (int32_t v = 0; v < n; ++v) {
         if (stack.first[v] < 0) continue;
-        const double reach = (columns.repaired[v] ? sizing.d[v] : sizing.D[v]) / 2;
-        const double top = columns.dist[size_t(v) * L + L - 1];
+        const double reach = (own.repaired[v] ? sizing.d[v] : sizing.D[v]) / 2;
+        const double top = own.dist[size_t(v) * L + L - 1];
         if (reach > 0 && top > reach) stack.scale[v] = reach / top;
     }
-    const VertexTable neighbours = vertex_neighbours(surface);
     std::vector<Vec3> at(n + size_t(count)); // surface points, then layer points
     std::copy(surface.points.begin(), surface.points.end(), at.begin());
     const auto place = [&] {
         tbb::parallel_for(int32_t(0), n, [&](int32_t v) {
             if (stack.first[v] < 0) return;
-            const std::vector<double> dist = shortened_column(&columns.dist[size_t(v) * L], L, stack.scale[v]);
+            const std::vector<double> dist = shortened_column(&own.dist[size_t(v) * L], L, stack.scale[v]);
             for (int32_t m = 1; m <= L; ++m)
-                at[n + stack.first[v] + m - 1] = surface.points[v] + dist[m - 1] * columns.inward[v];
+                at[n + stack.first[v] + m - 1] = surface.points[v] + dist[m - 1] * own.inward[v];
         });
     };
-    const auto point = [&](int32_t v, int32_t m) { return m == 0 ? v : n + stack.first[v] + m - 1; };
+    const auto point = [&](int32_t v, int32_t m) {
+        return m == 0 ? v : stack.first[v] >= 0 ? n + stack.first[v] + m - 1 : params.rim_columns[size_t(v) * L + m - 1];
+    };
     const auto split = [&](int32_t f, int32_t m) {
         const Triangle& t = surface.triangles[f];
         return prism_split({point(t[0], m - 1), point(t[1], m - 1), point(t[2], m - 1)},
@@ -172,8 +214,13 @@ LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizi
         place();
         tbb::parallel_for(size_t(0), walls.size(), [&](size_t w) {
             poor[w] = 0;
+            // Next to an opening, two columns may be the cap's own, fixed:
+            // there a prism that is not star-shaped (the export keeps it as
+            // three tets) is accepted as long as its tets are good.
+            bool star = true;
+            for (int32_t v : surface.triangles[walls[w]]) star = star && stack.first[v] >= 0;
             for (int32_t m = 1; m <= L && !poor[w]; ++m)
-                poor[w] = !good_split(split(walls[w], m), at, params.min_tet_fraction);
+                poor[w] = !good_split(split(walls[w], m), at, params.min_tet_fraction, star);
         });
         SurfaceMesh top;
         top.points = at;
@@ -195,14 +242,19 @@ LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizi
         for (size_t w = 0; w < walls.size(); ++w)
             if (poor[w])
                 for (int32_t v : surface.triangles[walls[w]]) shorten[v] = 1;
+        bool shortened = false;
         for (int32_t v = 0; v < n; ++v)
-            if (shorten[v]) stack.scale[v] *= params.shrink;
+            if (shorten[v] && stack.first[v] >= 0) stack.scale[v] *= params.shrink, shortened = true;
+        if (!shortened)
+            throw StageError("volume", std::to_string(std::count(poor.begin(), poor.end(), 1)) +
+                                           " wall triangles next to an opening have poor prism layers, and their "
+                                           "columns are the cap's own");
         for (bool changed = true; changed;) {
             changed = false;
             for (int32_t v = 0; v < n; ++v) {
                 if (stack.first[v] < 0) continue;
                 for (const int32_t* u = neighbours.begin(v); u != neighbours.end(v); ++u)
-                    if (stack.first[*u] >= 0 && stack.scale[v] > stack.scale[*u] + params.slope)
+                    if ((stack.first[*u] >= 0 || fixed(*u)) && stack.scale[v] > stack.scale[*u] + params.slope)
                         stack.scale[v] = stack.scale[*u] + params.slope, changed = true;
             }
         }

@@ -34,15 +34,21 @@ struct LayerStackParams {
     double shrink = 0.8;            // a column of a poor prism is shortened by this factor a round
     double slope = 0.3;             // a column's height fraction exceeds a neighbour's by at most this
     int max_rounds = 40;            // rounds of shortening at most
+    // Per surface node x floor(M/2): the surface point that is layer m of a
+    // rim node's column (RingParams::prism_columns), -1 elsewhere; empty
+    // without openings. Such columns are fixed: they are the cap's nodes.
+    std::vector<int32_t> rim_columns;
 };
 
 struct LayerStack {
     int32_t layers = 0;        // prisms per wall triangle (floor(M/2))
     int32_t surface_points = 0; // n: point ids below n are the surface's
     // The layer points, node by node: point n + first[v] + m - 1 is layer m of
-    // wall node v (m = 1..layers); first[v] = -1 for a node without a column.
+    // wall node v (m = 1..layers); first[v] = -1 for a node without a column
+    // of its own (not on the wall, or a rim node whose column is in its cap).
     std::vector<Vec3> points;
     std::vector<int32_t> first;
+    std::vector<int32_t> rim_columns; // as given (LayerStackParams::rim_columns), or empty
     std::vector<int32_t> point_generator, point_layer; // per layer point
     std::vector<double> scale; // per surface node: the fraction of its column's height kept (1: all)
     std::vector<Tet> tets;     // three per prism, positively oriented, over ids < n + points.size()
@@ -51,12 +57,14 @@ struct LayerStack {
     std::vector<int32_t> top_of; // per top triangle: its wall triangle
     int64_t prisms = 0;
     int64_t shortened_nodes = 0; // nodes whose column is below its full height
+    int64_t borrowed_columns = 0; // wall nodes without a trusted normal, given their neighbours' mean column
     int rounds = 0;              // rounds of shortening
 };
 
 // The stack over the triangles of patch 0 (every other patch is an opening
-// and gets no layers). Every node of a wall triangle needs a column
-// (columns.dist finite), else InputError. Columns start at their full
+// and gets no layers). A node of a wall triangle without a column (its
+// inward check failed) borrows its neighbours' mean column; InputError when
+// a whole region of such nodes has none to borrow. Columns start at their full
 // height cut to D / 2 (d / 2 for a repaired normal), proportions kept.
 // Throws StageError when some prism is still poor after max_rounds.
 LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizing, const LayerColumns& columns,

@@ -246,26 +246,48 @@ void build_stacked_mesh(const SurfaceMesh& surface, const FeatureSize& sizing, c
                         VolumeResult& result)
 {
     const int32_t n = static_cast<int32_t>(surface.points.size());
-    if (surface.triangle_patch.size() == surface.triangles.size() &&
-        std::any_of(surface.triangle_patch.begin(), surface.triangle_patch.end(), [](int32_t p) { return p != 0; }))
-        throw InputError("volume: layers = \"prisms\" does not yet mesh a surface with openings",
-                         "use [volume] layers = \"delaunay\" for a case with [[openings]]");
+    const bool openings =
+        surface.triangle_patch.size() == surface.triangles.size() &&
+        std::any_of(surface.triangle_patch.begin(), surface.triangle_patch.end(), [](int32_t p) { return p != 0; });
+    if (openings && params.rim_columns.empty())
+        throw InputError("volume: layers = \"prisms\" on a surface with openings needs the columns of their rims",
+                         "build the caps with RingParams::prism_columns and pass them as VolumeParams::rim_columns");
     auto t0 = Clock::now();
     const OffsetParams offset = offset_params(params);
     const std::vector<OffsetPoint> raw = offset_points(surface, sizing, offset);
-    const LayerStack stack = build_layer_stack(surface, sizing, layer_columns(surface, sizing, offset));
+    LayerStackParams stack_params;
+    stack_params.rim_columns = params.rim_columns;
+    const LayerStack stack = build_layer_stack(surface, sizing, layer_columns(surface, sizing, offset), stack_params);
     result.offset_points = static_cast<int64_t>(raw.size());
     result.stack_shortened_nodes = stack.shortened_nodes;
     result.stack_rounds = stack.rounds;
+    result.stack_borrowed_columns = stack.borrowed_columns;
     result.seconds_points = seconds_since(t0);
 
-    // The core's boundary: the stack's top, its points renumbered from 0.
+    // The core's boundary: the stack's top and the caps inside their last
+    // rings (the cap triangles with no rim node and no ring node below the
+    // last), its points renumbered from 0.
     t0 = Clock::now();
     const int32_t stack_end = n + static_cast<int32_t>(stack.points.size());
     std::vector<int32_t> local(stack_end, -1);
     SurfaceMesh boundary;
     std::vector<int32_t> global; // core boundary point -> mesh point
-    for (const Triangle& t : stack.top) {
+    std::vector<Triangle> core_faces = stack.top;
+    if (openings) {
+        const int32_t L = stack.layers;
+        std::vector<char> annulus(n, 0);
+        for (int32_t v = 0; v < n; ++v)
+            if (params.rim_columns[size_t(v) * L] >= 0) {
+                annulus[v] = 1;
+                for (int32_t m = 1; m < L; ++m) annulus[params.rim_columns[size_t(v) * L + m - 1]] = 1;
+            }
+        for (size_t f = 0; f < surface.triangles.size(); ++f) {
+            const Triangle& t = surface.triangles[f];
+            if (surface.triangle_patch[f] != 0 && !annulus[t[0]] && !annulus[t[1]] && !annulus[t[2]])
+                core_faces.push_back(t);
+        }
+    }
+    for (const Triangle& t : core_faces) {
         Triangle mapped;
         for (int k = 0; k < 3; ++k) {
             int32_t& id = local[t[k]];
@@ -334,6 +356,13 @@ void build_stacked_mesh(const SurfaceMesh& surface, const FeatureSize& sizing, c
     result.point_layer.assign(total, core_layer);
     result.point_filler.assign(total, 1);
     for (int32_t v = 0; v < n; ++v) result.point_generator[v] = v, result.point_layer[v] = 0, result.point_filler[v] = 0;
+    // A rim node's column is cap nodes: attributed to the rim node and
+    // their layer, as the stack's own points, so that the rim prisms are
+    // found as prisms.
+    for (int32_t v = 0; v < n && !params.rim_columns.empty(); ++v)
+        for (int32_t m = 1; m <= stack.layers; ++m)
+            if (const int32_t c = params.rim_columns[size_t(v) * stack.layers + m - 1]; c >= 0)
+                result.point_generator[c] = v, result.point_layer[c] = m;
     for (size_t k = 0; k < stack.points.size(); ++k) {
         result.point_generator[n + k] = stack.point_generator[k];
         result.point_layer[n + k] = stack.point_layer[k];

@@ -34,6 +34,9 @@ enum class LayerMode { delaunay, prisms };
 
 struct VolumeParams {
     LayerMode layers = LayerMode::delaunay;
+    std::vector<int32_t> rim_columns; // LayerMode::prisms on a surface with openings: per surface node x
+                                      // floor(M/2), the cap node that is layer m of a rim node's column
+                                      // (RingParams::prism_columns), -1 elsewhere
     double K = 4.2;      // anisotropy of the first layer (FirstLayer::edge) and of the report
     double M = 7;        // element layers across a cross-section, >= 1
     double growth = 1.0; // layer growth ratio lambda_{m+1} / lambda_m, >= 1; 1 = uniform (see layer_fractions)
@@ -83,6 +86,7 @@ struct VolumeResult {
     int64_t offset_points = 0;   // points made by Algorithm 4
     int64_t stack_shortened_nodes = 0; // LayerMode::prisms: wall nodes whose column was shortened (layer_stack.h)
     int stack_rounds = 0;              // and the rounds of shortening it took
+    int64_t stack_borrowed_columns = 0; // LayerMode::prisms: wall nodes given their neighbours' mean column
     int64_t filtered_points = 0; // removed by the interior-point filter
     int64_t inserted_points = 0; // interior points in the triangulation after insertion
     int64_t rejected_small = 0;  // final rejections for (i), tiny tets

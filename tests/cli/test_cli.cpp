@@ -348,30 +348,35 @@ TEST(Cli, AFailedRunLeavesEarlierOutputsUntouched)
 }
 
 // [volume] layers: the explicit prism layers reach OpenFOAM intact (at
-// least 95% of wall faces x layers as single prism cells, checkMesh's own
-// checks passed); the paper's Delaunay layers on the same torus do not.
+// least 95% of wall faces x layers as single prism cells, none of
+// checkMesh's failing checks), on a closed torus and on a tube with an
+// inlet and an outlet whose caps carry the rim prisms' sides; the paper's
+// Delaunay layers on the same torus do not.
 TEST(Cli, PrismLayersReachOpenFoamIntactWhereDelaunayLayersDoNot)
 {
-    for (const std::string layers : {"prisms", "delaunay"}) {
+    const std::string tube_openings = "[[openings]]\nname = \"inlet\"\ntype = \"inlet\"\npoint = [0, 0, -12]\n"
+                                      "normal = [0, 0, -1]\n[[openings]]\nname = \"outlet\"\ntype = \"outlet\"\n"
+                                      "point = [0, 0, 12]\nnormal = [0, 0, 1]\n";
+    struct Run {
+        std::string phantom, layers, openings;
+    };
+    for (const Run& run : {Run{"torus", "prisms", ""}, Run{"tube", "prisms", tube_openings},
+                           Run{"torus", "delaunay", ""}}) {
         const TempDir tmp;
-        std::ofstream(tmp.path / "scalemesh.toml")
-            << "[input]\nphantom = \"torus\"\nvoxel_size = 0.5\n[volume]\nlayers = \"" << layers << "\"\n";
-        ASSERT_EQ(run_scalemesh({"run", tmp.path.string(), "-q"}).exit_code, 0) << layers;
+        std::ofstream(tmp.path / "scalemesh.toml") << "[input]\nphantom = \"" << run.phantom
+                                                   << "\"\nvoxel_size = 0.5\n[volume]\nlayers = \"" << run.layers
+                                                   << "\"\n" << run.openings;
+        const std::string what = run.phantom + " with " + run.layers;
+        ASSERT_EQ(run_scalemesh({"run", tmp.path.string(), "-q"}).exit_code, 0) << what;
         const nlohmann::json report = nlohmann::json::parse(read_text(tmp.path / "report.json"));
-        EXPECT_EQ(report["parameters"]["layers"], layers);
+        EXPECT_EQ(report["parameters"]["layers"], run.layers);
         const double share = report["openfoam"]["intact_prism_share"].get<double>();
-        EXPECT_EQ(report["openfoam"]["checks"]["checkmesh_failures"].get<int64_t>(), 0) << layers;
-        if (layers == "prisms") EXPECT_GE(share, 0.95);
-        else EXPECT_LT(share, 0.95);
+        EXPECT_EQ(report["openfoam"]["checks"]["checkmesh_failures"].get<int64_t>(), 0) << what;
+        EXPECT_EQ(report["volume"]["nonpositive_tets"].get<int64_t>(), 0) << what;
+        EXPECT_TRUE(report["volume"]["boundary_matches_surface"].get<bool>()) << what;
+        if (run.layers == "prisms") EXPECT_GE(share, 0.95) << what;
+        else EXPECT_LT(share, 0.95) << what;
     }
-    // Not yet with openings: refused before any output, saying what to use.
-    const TempDir tmp;
-    std::ofstream(tmp.path / "scalemesh.toml")
-        << "[input]\nphantom = \"tube\"\nvoxel_size = 0.5\n[volume]\nlayers = \"prisms\"\n"
-           "[[openings]]\nname = \"inlet\"\ntype = \"inlet\"\npoint = [0, 0, -12]\nnormal = [0, 0, -1]\n"
-           "[[openings]]\nname = \"outlet\"\ntype = \"outlet\"\npoint = [0, 0, 12]\nnormal = [0, 0, 1]\n";
-    expect_refused(run_scalemesh({"run", tmp.path.string(), "-q"}), 2, "layers = \"delaunay\"");
-    EXPECT_FALSE(std::filesystem::exists(tmp.path / "constant"));
 }
 
 } // namespace
