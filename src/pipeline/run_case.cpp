@@ -377,6 +377,8 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
                             {"stack_shortened_nodes", v.stack_shortened_nodes},
                             {"stack_rounds", v.stack_rounds},
                             {"stack_borrowed_columns", v.stack_borrowed_columns},
+                            {"stack_lenient_prisms", v.stack_lenient_prisms},
+                            {"stack_bare_wall_triangles", v.stack_holes},
                             {"flips_3_2", v.flips_32},
                             {"flips_2_3", v.flips_23},
                             {"flips_4_4", v.flips_44},

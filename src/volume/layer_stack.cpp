@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <unordered_map>
 
 namespace scalemesh {
 
@@ -71,6 +72,27 @@ bool good_split(const std::array<Tet, 3>& tets, const std::vector<Vec3>& at, dou
             return false;
     }
     return true;
+}
+
+// For each wall triangle (index into `walls`) and each of its edges, the
+// wall triangle across it.
+struct EdgeFaces {
+    std::unordered_map<uint64_t, int32_t> face_of; // directed edge (a, b) -> the triangle with it
+    int32_t other(size_t, int32_t a, int32_t b) const
+    {
+        const auto it = face_of.find(directed_edge_key(b, a));
+        return it == face_of.end() ? -1 : it->second;
+    }
+};
+
+EdgeFaces wall_edge_faces(const SurfaceMesh& surface, const std::vector<int32_t>& walls)
+{
+    EdgeFaces out;
+    for (size_t w = 0; w < walls.size(); ++w) {
+        const Triangle& t = surface.triangles[walls[w]];
+        for (int k = 0; k < 3; ++k) out.face_of[directed_edge_key(t[k], t[(k + 1) % 3])] = static_cast<int32_t>(w);
+    }
+    return out;
 }
 
 } // namespace
@@ -209,19 +231,40 @@ LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizi
 
     // Rounds: the nodes of poor prisms and of crossing top triangles are
     // shortened, then every column is limited by its neighbours' (slope).
-    std::vector<char> poor(walls.size());
+    //
+    // Where shortening does not help (the prism's shape no longer changes
+    // as its columns shorten: directions tilted far from a face's normal,
+    // as at a voxel ridge, or two of its columns the cap's own), from round
+    // relax_round on, a prism is accepted as it is when each tet of its split
+    // still holds a fifth of min_tet_fraction of its volume; it need not be
+    // star-shaped (the export keeps such a prism as three tets). Next to an
+    // opening, star-shaped is not asked from the start. No column is
+    // shortened below min_scale of its height: a prism still poor there is
+    // left bare (below), not made a sliver.
+    std::vector<char> poor(walls.size()), lenient(walls.size(), 0);
+    for (size_t w = 0; w < walls.size(); ++w)
+        for (int32_t v : surface.triangles[walls[w]])
+            if (stack.first[v] < 0) lenient[w] = 1;
     for (;; ++stack.rounds) {
         place();
-        tbb::parallel_for(size_t(0), walls.size(), [&](size_t w) {
+        // lenient 1: not star-shaped; 2: also tets of a fifth of the fraction.
+        const auto fraction = [&](size_t w) {
+            return lenient[w] == 2 ? params.min_tet_fraction / 5 : params.min_tet_fraction;
+        };
+        const auto check = [&](size_t w) {
             poor[w] = 0;
-            // Next to an opening, two columns may be the cap's own, fixed:
-            // there a prism that is not star-shaped (the export keeps it as
-            // three tets) is accepted as long as its tets are good.
-            bool star = true;
-            for (int32_t v : surface.triangles[walls[w]]) star = star && stack.first[v] >= 0;
             for (int32_t m = 1; m <= L && !poor[w]; ++m)
-                poor[w] = !good_split(split(walls[w], m), at, params.min_tet_fraction, star);
-        });
+                poor[w] = !good_split(split(walls[w], m), at, fraction(w), lenient[w] == 0);
+        };
+        tbb::parallel_for(size_t(0), walls.size(), check);
+        if (stack.rounds >= params.relax_round)
+            for (size_t w = 0; w < walls.size(); ++w) {
+                const char was = lenient[w];
+                for (char level = 2; poor[w] && level <= 2; ++level)
+                    if (lenient[w] < level) lenient[w] = level, check(w);
+                if (!poor[w] && lenient[w] != was) ++stack.lenient_prisms;
+                else if (poor[w]) lenient[w] = was;
+            }
         SurfaceMesh top;
         top.points = at;
         for (int32_t f : walls) {
@@ -230,25 +273,16 @@ LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizi
         }
         const SelfIntersections crossing = self_intersections(top, size_t(1) << 20);
         for (const auto& pair : crossing.first) poor[pair[0]] = poor[pair[1]] = 1;
-        if (std::find(poor.begin(), poor.end(), 1) == poor.end()) {
-            stack.top = std::move(top.triangles);
-            break;
-        }
-        if (stack.rounds == params.max_rounds)
-            throw StageError("volume", std::to_string(std::count(poor.begin(), poor.end(), 1)) +
-                                           " wall triangles still have poor or crossing prism layers after " +
-                                           std::to_string(params.max_rounds) + " rounds of shortening");
+        if (std::find(poor.begin(), poor.end(), 1) == poor.end() || stack.rounds == params.max_rounds) break;
         std::vector<char> shorten(n, 0);
         for (size_t w = 0; w < walls.size(); ++w)
             if (poor[w])
                 for (int32_t v : surface.triangles[walls[w]]) shorten[v] = 1;
         bool shortened = false;
         for (int32_t v = 0; v < n; ++v)
-            if (shorten[v] && stack.first[v] >= 0) stack.scale[v] *= params.shrink, shortened = true;
-        if (!shortened)
-            throw StageError("volume", std::to_string(std::count(poor.begin(), poor.end(), 1)) +
-                                           " wall triangles next to an opening have poor prism layers, and their "
-                                           "columns are the cap's own");
+            if (shorten[v] && stack.first[v] >= 0 && stack.scale[v] > params.min_scale)
+                stack.scale[v] = std::max(params.min_scale, stack.scale[v] * params.shrink), shortened = true;
+        if (!shortened) break; // what is left is bare (below)
         for (bool changed = true; changed;) {
             changed = false;
             for (int32_t v = 0; v < n; ++v) {
@@ -260,13 +294,108 @@ LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizi
         }
     }
 
-    stack.points.assign(at.begin() + n, at.end());
-    stack.top_of = walls;
-    stack.tets.reserve(walls.size() * 3 * size_t(L));
-    for (int32_t f : walls)
+    // What the rounds could not mend stays without layers: a hole in the
+    // stack, which the core fills, bounded by the hole's wall triangles and
+    // the side faces of the prisms around it.
+    std::vector<char> hole(walls.size(), 0);
+    const auto bare = [&](size_t w) {
+        int fixed_corners = 0;
+        for (int32_t v : surface.triangles[walls[w]]) fixed_corners += stack.first[v] < 0;
+        if (fixed_corners >= 2)
+            throw StageError("volume", "wall triangle " + std::to_string(walls[w]) +
+                                           " next to an opening has poor prism layers, and two of its columns are "
+                                           "the cap's own");
+    };
+    for (size_t w = 0; w < walls.size(); ++w)
+        if (poor[w]) hole[w] = 1, ++stack.holes, bare(w);
+
+    const EdgeFaces edges = wall_edge_faces(surface, walls);
+    for (int pass = 0;; ++pass) {
+        stack.tets.clear(), stack.top.clear(), stack.top_of.clear(), stack.prisms = 0;
+    for (size_t w = 0; w < walls.size(); ++w) {
+            const int32_t f = walls[w];
+            const Triangle& t = surface.triangles[f];
+            if (hole[w]) {
+                stack.top.push_back(t);
+                stack.top_of.push_back(f);
+                continue;
+            }
+            for (int32_t m = 1; m <= L; ++m)
+                for (const Tet& tet : split(f, m)) stack.tets.push_back(tet);
+            stack.top.push_back(Triangle{point(t[0], L), point(t[1], L), point(t[2], L)});
+            stack.top_of.push_back(f);
+            ++stack.prisms;
+            for (int k = 0; k < 3; ++k) {
+                const int32_t a = t[k], b = t[(k + 1) % 3];
+                const int32_t across = edges.other(w, a, b);
+                if (across < 0 || !hole[across]) continue;
+                for (int32_t m = 1; m <= L; ++m) {
+                    const std::array<int32_t, 4> quad{point(a, m - 1), point(b, m - 1), point(a, m), point(b, m)};
+                    for (const Tet& tet : split(f, m))
+                        for (int j = 0; j < 4; ++j) {
+                            const Triangle face = tet_face(tet, j);
+                            if (std::all_of(face.begin(), face.end(), [&](int32_t x) {
+                                    return std::find(quad.begin(), quad.end(), x) != quad.end();
+                                }))
+                                stack.top.push_back(Triangle{face[0], face[2], face[1]}), stack.top_of.push_back(f);
+                        }
+                }
+            }
+        }
+        SurfaceMesh boundary;
+        boundary.points = at;
+        boundary.triangles = stack.top;
+        for (const Triangle& t : params.core_faces) boundary.triangles.push_back(t);
+        const SelfIntersections crossing = self_intersections(boundary, size_t(1) << 20);
+        if (crossing.pairs == 0) break;
+        if (pass == 5)
+            throw StageError("volume", "the core's boundary inside the prism layers still crosses itself (" +
+                                           std::to_string(crossing.pairs) + " pairs of triangles) after " +
+                                           std::to_string(pass) + " rounds of leaving their wall triangles bare");
+        const auto wall_index = [&](int32_t face) {
+            return face < int32_t(stack.top_of.size())
+                       ? int32_t(std::lower_bound(walls.begin(), walls.end(), stack.top_of[face]) - walls.begin())
+                       : -1;
+        };
+        for (const auto& pair : crossing.first)
+            for (int32_t face : pair)
+                if (const int32_t w = wall_index(face); w >= 0 && !hole[w]) hole[w] = 1, ++stack.holes, bare(w);
+    }
+    // The layer points in use (of a node with a prism), renumbered.
+    std::vector<int32_t> new_id(at.size(), -1);
+    for (int32_t v = 0; v < n; ++v) new_id[v] = v;
+    std::vector<char> in_use(n, 0);
+    for (size_t w = 0; w < walls.size(); ++w)
+        if (!hole[w])
+            for (int32_t v : surface.triangles[walls[w]]) in_use[v] = 1;
+    std::vector<int32_t> first(n, -1);
+    std::vector<Vec3> points;
+    std::vector<int32_t> generator, layer;
+    for (int32_t v = 0; v < n; ++v) {
+        if (stack.first[v] < 0 || !in_use[v]) continue;
+        first[v] = static_cast<int32_t>(points.size());
+        for (int32_t m = 1; m <= L; ++m) {
+            new_id[point(v, m)] = n + static_cast<int32_t>(points.size());
+            points.push_back(at[point(v, m)]);
+            generator.push_back(v);
+            layer.push_back(m);
+        }
+    }
+    for (int32_t v = 0; v < n && !params.rim_columns.empty(); ++v)
         for (int32_t m = 1; m <= L; ++m)
-            for (const Tet& t : split(f, m)) stack.tets.push_back(t);
-    stack.prisms = static_cast<int64_t>(walls.size()) * L;
+            if (const int32_t c = params.rim_columns[size_t(v) * L + m - 1]; c >= 0) new_id[c] = c;
+    const auto renumbered = [&](auto cell) {
+        for (int32_t& v : cell) v = new_id[v];
+        return cell;
+    };
+
+    for (Tet& t : stack.tets) t = renumbered(t);
+    for (Triangle& t : stack.top) t = renumbered(t);
+    stack.prisms *= L;
+    stack.first = std::move(first);
+    stack.points = std::move(points);
+    stack.point_generator = std::move(generator);
+    stack.point_layer = std::move(layer);
     for (int32_t v = 0; v < n; ++v)
         if (stack.first[v] >= 0 && stack.scale[v] < 1) ++stack.shortened_nodes;
     return stack;

@@ -31,13 +31,18 @@ namespace scalemesh {
 
 struct LayerStackParams {
     double min_tet_fraction = 0.05; // each tet of a prism's split has at least this fraction of the prism's volume
-    double shrink = 0.8;            // a column of a poor prism is shortened by this factor a round
+    double shrink = 0.8;            // a column of a poor prism is shortened by this factor a round,
+    double min_scale = 0.1;         // down to this fraction of its height at most
     double slope = 0.3;             // a column's height fraction exceeds a neighbour's by at most this
     int max_rounds = 40;            // rounds of shortening at most
+    int relax_round = 12;           // from this round on, prisms that shortening does not mend are accepted
+                                    // with thinner tets (build_layer_stack)
     // Per surface node x floor(M/2): the surface point that is layer m of a
     // rim node's column (RingParams::prism_columns), -1 elsewhere; empty
     // without openings. Such columns are fixed: they are the cap's nodes.
     std::vector<int32_t> rim_columns;
+    std::vector<Triangle> core_faces; // the rest of the core's boundary (the caps inside their last rings),
+                                      // checked with the stack's against crossings
 };
 
 struct LayerStack {
@@ -52,12 +57,16 @@ struct LayerStack {
     std::vector<int32_t> point_generator, point_layer; // per layer point
     std::vector<double> scale; // per surface node: the fraction of its column's height kept (1: all)
     std::vector<Tet> tets;     // three per prism, positively oriented, over ids < n + points.size()
-    std::vector<Triangle> top; // per wall triangle, in order: its prism stack's top, oriented as the wall
-                               // triangle (outward from the core the stack leaves)
+    std::vector<Triangle> top; // the core's boundary along the wall: each prism stack's top, and around a
+                               // hole its wall triangles and the side faces of the prisms beside it, all
+                               // oriented outward from the core
     std::vector<int32_t> top_of; // per top triangle: its wall triangle
     int64_t prisms = 0;
+    int64_t holes = 0;         // wall triangles left without layers: their prisms stayed poor after max_rounds
     int64_t shortened_nodes = 0; // nodes whose column is below its full height
     int64_t borrowed_columns = 0; // wall nodes without a trusted normal, given their neighbours' mean column
+    int64_t lenient_prisms = 0;   // wall triangles whose prisms were accepted after relax_round (besides
+                                  // those next to an opening)
     int rounds = 0;              // rounds of shortening
 };
 
@@ -66,7 +75,9 @@ struct LayerStack {
 // inward check failed) borrows its neighbours' mean column; InputError when
 // a whole region of such nodes has none to borrow. Columns start at their full
 // height cut to D / 2 (d / 2 for a repaired normal), proportions kept.
-// Throws StageError when some prism is still poor after max_rounds.
+// Wall triangles whose prisms are still poor after max_rounds get no layers
+// (holes, which the core fills); StageError when such a triangle has two
+// nodes on an opening's rim.
 LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizing, const LayerColumns& columns,
                              const LayerStackParams& params = {});
 

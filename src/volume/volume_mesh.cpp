@@ -257,24 +257,10 @@ void build_stacked_mesh(const SurfaceMesh& surface, const FeatureSize& sizing, c
     const std::vector<OffsetPoint> raw = offset_points(surface, sizing, offset);
     LayerStackParams stack_params;
     stack_params.rim_columns = params.rim_columns;
-    const LayerStack stack = build_layer_stack(surface, sizing, layer_columns(surface, sizing, offset), stack_params);
-    result.offset_points = static_cast<int64_t>(raw.size());
-    result.stack_shortened_nodes = stack.shortened_nodes;
-    result.stack_rounds = stack.rounds;
-    result.stack_borrowed_columns = stack.borrowed_columns;
-    result.seconds_points = seconds_since(t0);
-
-    // The core's boundary: the stack's top and the caps inside their last
-    // rings (the cap triangles with no rim node and no ring node below the
-    // last), its points renumbered from 0.
-    t0 = Clock::now();
-    const int32_t stack_end = n + static_cast<int32_t>(stack.points.size());
-    std::vector<int32_t> local(stack_end, -1);
-    SurfaceMesh boundary;
-    std::vector<int32_t> global; // core boundary point -> mesh point
-    std::vector<Triangle> core_faces = stack.top;
+    // The caps inside their last rings (the cap triangles with no rim node
+    // and no ring node below the last) bound the core with the stack's top.
     if (openings) {
-        const int32_t L = stack.layers;
+        const int32_t L = static_cast<int32_t>(std::floor(params.M / 2));
         std::vector<char> annulus(n, 0);
         for (int32_t v = 0; v < n; ++v)
             if (params.rim_columns[size_t(v) * L] >= 0) {
@@ -284,9 +270,27 @@ void build_stacked_mesh(const SurfaceMesh& surface, const FeatureSize& sizing, c
         for (size_t f = 0; f < surface.triangles.size(); ++f) {
             const Triangle& t = surface.triangles[f];
             if (surface.triangle_patch[f] != 0 && !annulus[t[0]] && !annulus[t[1]] && !annulus[t[2]])
-                core_faces.push_back(t);
+                stack_params.core_faces.push_back(t);
         }
     }
+    const LayerStack stack = build_layer_stack(surface, sizing, layer_columns(surface, sizing, offset), stack_params);
+    result.offset_points = static_cast<int64_t>(raw.size());
+    result.stack_shortened_nodes = stack.shortened_nodes;
+    result.stack_rounds = stack.rounds;
+    result.stack_borrowed_columns = stack.borrowed_columns;
+    result.stack_lenient_prisms = stack.lenient_prisms;
+    result.stack_holes = stack.holes;
+    result.seconds_points = seconds_since(t0);
+
+    // The core's boundary: the stack's top and the caps inside their last
+    // rings, its points renumbered from 0.
+    t0 = Clock::now();
+    const int32_t stack_end = n + static_cast<int32_t>(stack.points.size());
+    std::vector<int32_t> local(stack_end, -1);
+    SurfaceMesh boundary;
+    std::vector<int32_t> global; // core boundary point -> mesh point
+    std::vector<Triangle> core_faces = stack.top;
+    core_faces.insert(core_faces.end(), stack_params.core_faces.begin(), stack_params.core_faces.end());
     for (const Triangle& t : core_faces) {
         Triangle mapped;
         for (int k = 0; k < 3; ++k) {

@@ -86,7 +86,9 @@ struct VolumeResult {
     int64_t offset_points = 0;   // points made by Algorithm 4
     int64_t stack_shortened_nodes = 0; // LayerMode::prisms: wall nodes whose column was shortened (layer_stack.h)
     int stack_rounds = 0;              // and the rounds of shortening it took
-    int64_t stack_borrowed_columns = 0; // LayerMode::prisms: wall nodes given their neighbours' mean column
+    int64_t stack_borrowed_columns = 0; // LayerMode::prisms: wall nodes given their neighbours' mean column,
+    int64_t stack_lenient_prisms = 0;   // and wall triangles whose prisms were accepted less strictly, and those
+    int64_t stack_holes = 0;            // left without layers (LayerStack)
     int64_t filtered_points = 0; // removed by the interior-point filter
     int64_t inserted_points = 0; // interior points in the triangulation after insertion
     int64_t rejected_small = 0;  // final rejections for (i), tiny tets
