@@ -74,11 +74,10 @@ bool good_split(const std::array<Tet, 3>& tets, const std::vector<Vec3>& at, dou
     return true;
 }
 
-// For each wall triangle (index into `walls`) and each of its edges, the
-// wall triangle across it.
+// The wall triangle (index into `walls`) across each edge of a wall triangle.
 struct EdgeFaces {
     std::unordered_map<uint64_t, int32_t> face_of; // directed edge (a, b) -> the triangle with it
-    int32_t other(size_t, int32_t a, int32_t b) const
+    int32_t other(int32_t a, int32_t b) const
     {
         const auto it = face_of.find(directed_edge_key(b, a));
         return it == face_of.end() ? -1 : it->second;
@@ -312,7 +311,7 @@ LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizi
     const EdgeFaces edges = wall_edge_faces(surface, walls);
     for (int pass = 0;; ++pass) {
         stack.tets.clear(), stack.top.clear(), stack.top_of.clear(), stack.prisms = 0;
-    for (size_t w = 0; w < walls.size(); ++w) {
+        for (size_t w = 0; w < walls.size(); ++w) {
             const int32_t f = walls[w];
             const Triangle& t = surface.triangles[f];
             if (hole[w]) {
@@ -327,7 +326,7 @@ LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizi
             ++stack.prisms;
             for (int k = 0; k < 3; ++k) {
                 const int32_t a = t[k], b = t[(k + 1) % 3];
-                const int32_t across = edges.other(w, a, b);
+                const int32_t across = edges.other(a, b);
                 if (across < 0 || !hole[across]) continue;
                 for (int32_t m = 1; m <= L; ++m) {
                     const std::array<int32_t, 4> quad{point(a, m - 1), point(b, m - 1), point(a, m), point(b, m)};
