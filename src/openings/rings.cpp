@@ -83,6 +83,33 @@ double segment_distance(double px, double py, double ax, double ay, double bx, d
     return std::hypot(px - ax - s * ex, py - ay - s * ey);
 }
 
+// Whether (px, py) is inside an odd number of the closed polygons `loops`
+// (ids into u, v).
+bool inside_loops(const std::vector<double>& u, const std::vector<double>& v,
+                  const std::vector<std::vector<int32_t>>& loops, double px, double py)
+{
+    bool in = false;
+    for (const auto& loop : loops)
+        for (size_t k = 0; k < loop.size(); ++k) {
+            const int32_t a = loop[k], b = loop[(k + 1) % loop.size()];
+            if ((v[a] > py) != (v[b] > py) && px < u[a] + (py - v[a]) * (u[b] - u[a]) / (v[b] - v[a])) in = !in;
+        }
+    return in;
+}
+
+// The distance from (px, py) to the nearest segment of `loops`.
+double loops_distance(const std::vector<double>& u, const std::vector<double>& v,
+                      const std::vector<std::vector<int32_t>>& loops, double px, double py)
+{
+    double best = std::numeric_limits<double>::infinity();
+    for (const auto& loop : loops)
+        for (size_t k = 0; k < loop.size(); ++k) {
+            const int32_t a = loop[k], b = loop[(k + 1) % loop.size()];
+            best = std::min(best, segment_distance(px, py, u[a], v[a], u[b], v[b]));
+        }
+    return best;
+}
+
 // RingParams::prism_columns: cap `cap` rebuilt around the columns of its
 // rim nodes. Each rim node's layermaking points, along its in-plane normal
 // at the distances of layer_columns (shortened_column where the last would
@@ -225,24 +252,8 @@ void prism_cap(const SurfaceMesh& surface, const Cap& cap, const openings::Plane
         }
     // Inside the last ring: the filler points well inside it, then a
     // constrained Delaunay triangulation.
-    const auto inside = [&](double px, double py) {
-        bool in = false;
-        for (const auto& loop : inner_loops)
-            for (size_t k = 0; k < loop.size(); ++k) {
-                const int32_t a = loop[k], b = loop[(k + 1) % loop.size()];
-                if ((v[a] > py) != (v[b] > py) && px < u[a] + (py - v[a]) * (u[b] - u[a]) / (v[b] - v[a])) in = !in;
-            }
-        return in;
-    };
-    const auto ring_distance = [&](double px, double py) {
-        double best = std::numeric_limits<double>::infinity();
-        for (const auto& loop : inner_loops)
-            for (size_t k = 0; k < loop.size(); ++k) {
-                const int32_t a = loop[k], b = loop[(k + 1) % loop.size()];
-                best = std::min(best, segment_distance(px, py, u[a], v[a], u[b], v[b]));
-            }
-        return best;
-    };
+    const auto inside = [&](double px, double py) { return inside_loops(u, v, inner_loops, px, py); };
+    const auto ring_distance = [&](double px, double py) { return loops_distance(u, v, inner_loops, px, py); };
     const size_t ring_count = ids.size();
     std::vector<double> spacing;
     for (const OffsetPoint& p : candidates) {
@@ -342,24 +353,8 @@ SurfaceMesh ring_caps(const SurfaceMesh& surface, const std::vector<Cap>& caps, 
             local_loops.push_back(std::move(local));
         }
         const size_t rim_count = ids.size();
-        const auto inside = [&](double px, double py) {
-            bool in = false;
-            for (const auto& loop : local_loops)
-                for (size_t k = 0; k < loop.size(); ++k) {
-                    const int32_t a = loop[k], b = loop[(k + 1) % loop.size()];
-                    if ((v[a] > py) != (v[b] > py) && px < u[a] + (py - v[a]) * (u[b] - u[a]) / (v[b] - v[a])) in = !in;
-                }
-            return in;
-        };
-        const auto rim_distance = [&](double px, double py) {
-            double best = std::numeric_limits<double>::infinity();
-            for (const auto& loop : local_loops)
-                for (size_t k = 0; k < loop.size(); ++k) {
-                    const int32_t a = loop[k], b = loop[(k + 1) % loop.size()];
-                    best = std::min(best, segment_distance(px, py, u[a], v[a], u[b], v[b]));
-                }
-            return best;
-        };
+        const auto inside = [&](double px, double py) { return inside_loops(u, v, local_loops, px, py); };
+        const auto rim_distance = [&](double px, double py) { return loops_distance(u, v, local_loops, px, py); };
 
         if (params.prism_columns) {
             prism_cap(surface, cap, basis, loops, rim_sizing, offset, L, params.filter_fraction, index, candidates,
