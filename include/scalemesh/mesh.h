@@ -57,6 +57,8 @@ struct MeshOptions {
     // [volume], Algorithms 4 and 5.
     double growth;                     // layer thickness ratio, [1, 3]; 1 = uniform layers
     std::string first_layer;           // "edge" (surface edge length / K) or "paper" (d / M)
+    std::string layers;                // "delaunay" (the paper's layer points in one Delaunay triangulation)
+                                       // or "prisms" (prism layers built explicitly, the core meshed above)
     double layer_tolerance;            // fraction of its layer spacing a layer point may move, (0, 0.5]
 
     // [run]

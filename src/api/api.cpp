@@ -70,7 +70,7 @@ CaseConfig case_for(const std::filesystem::path& file, const MeshOptions& o, con
     text += std::string("curvature = ") + (o.curvature ? "true" : "false") + "\n";
     text += "[remeshing]\ncycles = " + std::to_string(o.remesh_cycles) + "\n";
     text += "[volume]\ngrowth = " + toml_number(o.growth) + "\nfirst_layer = " + toml_string(o.first_layer) +
-            "\nlayer_tolerance = " + toml_number(o.layer_tolerance) + "\n";
+            "\nlayers = " + toml_string(o.layers) + "\nlayer_tolerance = " + toml_number(o.layer_tolerance) + "\n";
     text += "[run]\nthreads = " + std::to_string(o.threads) + "\n";
     CaseConfig config = parse_case(text, ".", "mesh options");
     if (config.remesh_cycles < 1)
@@ -291,6 +291,7 @@ MeshOptions::MeshOptions()
     remesh_cycles = defaults.remesh_cycles;
     growth = defaults.growth;
     first_layer = defaults.first_layer == FirstLayer::edge ? "edge" : "paper";
+    layers = defaults.layers == LayerMode::prisms ? "prisms" : "delaunay";
     layer_tolerance = defaults.layer_tolerance;
     threads = defaults.threads;
 }

@@ -48,7 +48,7 @@ MeshLength length_option(const char* key, const py::handle& value)
 
 const char* const option_names[] = {"K", "M", "G", "L_min", "L_max", "curvature", "smoothing_sweeps",
                                     "smoothing_omega", "smoothing_reach", "remesh_cycles", "growth", "first_layer",
-                                    "layer_tolerance", "threads", "max_memory", "progress"};
+                                    "layers", "layer_tolerance", "threads", "max_memory", "progress"};
 
 // MeshOptions from keyword arguments named as its members; the library
 // checks the values (ValueError naming the key).
@@ -71,6 +71,7 @@ MeshOptions mesh_options(const py::kwargs& kwargs)
         else if (key == "remesh_cycles") o.remesh_cycles = value.cast<int>();
         else if (key == "growth") o.growth = value.cast<double>();
         else if (key == "first_layer") o.first_layer = value.cast<std::string>();
+        else if (key == "layers") o.layers = value.cast<std::string>();
         else if (key == "layer_tolerance") o.layer_tolerance = value.cast<double>();
         else if (key == "threads") o.threads = value.cast<int>();
         else if (key == "max_memory") o.max_memory = value.cast<std::int64_t>();
@@ -237,7 +238,7 @@ mesh_gmsh_model(physical_group=None, *, volume_name="fluid", views=True, **optio
 Options (keyword arguments, defaults those of the case file scalemesh.toml,
 see defaults()): K, M, G, L_min, L_max, curvature, smoothing_sweeps,
 smoothing_omega, smoothing_reach, remesh_cycles, growth, first_layer,
-layer_tolerance, threads, max_memory, progress. Lengths are numbers in mm or
+layers, layer_tolerance, threads, max_memory, progress. Lengths are numbers in mm or
 strings "2 mm" / "0.5 voxels". progress(stage, seconds, summary) is called
 when a stage starts (seconds < 0) and ends.
 
@@ -313,6 +314,7 @@ is node first_node_tag + i, tet t element first_tet_tag + t), views (tags).)");
         d["remesh_cycles"] = o.remesh_cycles;
         d["growth"] = o.growth;
         d["first_layer"] = o.first_layer;
+        d["layers"] = o.layers;
         d["layer_tolerance"] = o.layer_tolerance;
         d["threads"] = o.threads;
         d["max_memory"] = o.max_memory;

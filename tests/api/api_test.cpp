@@ -200,6 +200,75 @@ TEST(Api, MeshesAClosedSurfaceWithTheCaseFileDefaults)
     EXPECT_EQ(*std::max_element(m.layers.begin(), m.layers.begin() + m.surface_points), 3.0);
 }
 
+// The layer prisms a mesh keeps whole: for each boundary triangle and layer
+// m, the tets whose four points are the columns' points of layers m - 1 and
+// m of that triangle's three nodes (read from point_generator, point_filler
+// and point_layer). A prism is whole when three such tets use all six of
+// its points: in a valid mesh (no overlap) they fill it.
+size_t whole_layer_prisms(const MeshResult& m)
+{
+    struct Fill {
+        int tets = 0;
+        std::set<size_t> points;
+    };
+    std::map<std::pair<std::array<int32_t, 3>, int32_t>, Fill> filled; // (triangle, layer) -> its tets
+    for (size_t t = 0; t < m.tet_count(); ++t) {
+        std::array<int32_t, 3> generators{-1, -1, -1};
+        int32_t top = 0, bottom = 1 << 30, distinct = 0;
+        bool layered = true;
+        for (int k = 0; k < 4; ++k) {
+            const size_t p = m.tets[4 * t + k];
+            if (m.point_filler[p]) layered = false;
+            top = std::max(top, m.point_layer[p]), bottom = std::min(bottom, m.point_layer[p]);
+            const int32_t g = m.point_generator[p];
+            if (std::find(generators.begin(), generators.begin() + distinct, g) == generators.begin() + distinct) {
+                if (distinct == 3) layered = false;
+                else generators[distinct++] = g;
+            }
+        }
+        if (!layered || distinct != 3 || top != bottom + 1) continue;
+        std::sort(generators.begin(), generators.end());
+        Fill& fill = filled[{generators, top}];
+        ++fill.tets;
+        fill.points.insert(m.tets.begin() + 4 * t, m.tets.begin() + 4 * t + 4);
+    }
+    size_t whole = 0;
+    for (size_t f = 0; f < m.boundary_count(); ++f) {
+        std::array<int32_t, 3> g;
+        for (int k = 0; k < 3; ++k) g[k] = static_cast<int32_t>(m.boundary_triangles[3 * f + k]);
+        std::sort(g.begin(), g.end());
+        for (int32_t layer = 1;; ++layer) {
+            const auto found = filled.find({g, layer});
+            if (found == filled.end()) break;
+            if (found->second.tets == 3 && found->second.points.size() == 6) ++whole;
+        }
+    }
+    return whole;
+}
+
+// layers = "prisms" reaches the library: nearly every wall triangle's three
+// layers are whole prisms, where the paper's Delaunay layers keep far fewer.
+TEST(Api, PrismLayersAreWholePrisms)
+{
+    const SurfaceInput sphere = icosphere(5.0, 3);
+    scalemesh::MeshOptions options;
+    options.threads = 2;
+    options.layers = "prisms";
+    const MeshResult prisms = scalemesh::mesh_surface(sphere, options);
+    expect_valid_mesh(prisms);
+    options.layers = "delaunay";
+    const MeshResult delaunay = scalemesh::mesh_surface(sphere, options);
+    const double wanted = 3.0 * static_cast<double>(prisms.boundary_count());
+    const double whole = static_cast<double>(whole_layer_prisms(prisms)) / wanted;
+    const double paper = static_cast<double>(whole_layer_prisms(delaunay)) / (3.0 * delaunay.boundary_count());
+    std::printf("whole layer prisms: %.1f%% with layers = \"prisms\", %.1f%% with \"delaunay\"\n", 100 * whole,
+                100 * paper);
+    EXPECT_GE(whole, 0.95);
+    EXPECT_LT(paper, 0.8);
+    options.layers = "wedges";
+    EXPECT_THROW(scalemesh::mesh_surface(sphere, options), scalemesh::InputError);
+}
+
 TEST(Api, DefaultsAreTheCaseFileDefaults)
 {
     const scalemesh::MeshOptions o;
@@ -213,6 +282,7 @@ TEST(Api, DefaultsAreTheCaseFileDefaults)
     EXPECT_EQ(o.remesh_cycles, 3);
     EXPECT_EQ(o.growth, 1.0);
     EXPECT_EQ(o.first_layer, "edge");
+    EXPECT_EQ(o.layers, "delaunay");
     EXPECT_EQ(o.threads, 0);
 }
 

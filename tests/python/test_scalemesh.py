@@ -249,10 +249,13 @@ class TestMeshSurface(GmshSession):
     def test_options_are_the_case_file_defaults_and_are_checked(self):
         defaults = scalemesh.defaults()
         self.assertEqual((defaults["K"], defaults["M"], defaults["G"]), (4.2, 7.0, 0.85))
+        self.assertEqual(defaults["layers"], "delaunay")
         build_tube()
         points, triangles = model_triangles()
         with self.assertRaisesRegex(ValueError, "growth"):
             scalemesh.mesh_surface(points, triangles, growth=5.0)
+        with self.assertRaisesRegex(ValueError, "layers"):
+            scalemesh.mesh_surface(points, triangles, layers="wedges")
         with self.assertRaisesRegex(TypeError, "unexpected keyword argument 'grwth'"):
             scalemesh.mesh_surface(points, triangles, grwth=1.2)
         with self.assertRaisesRegex(ValueError, "is not a length"):
