@@ -13,6 +13,7 @@
 #include <map>
 #include <mutex>
 #include <numeric>
+#include <stdexcept>
 #include <vector>
 
 #include <tbb/blocked_range.h>
@@ -61,7 +62,8 @@ public:
     // a point's own list is made from it the first time an edit looks at it
     // or adds a tet to it. An edit touches few of the points, so the editor
     // costs two passes over the tets instead of a heap list per point.
-    explicit TetEditor(TetMesh& mesh) : mesh_(mesh), tets_(mesh.tets)
+    // The first `locked` tets are never replaced (see replace).
+    explicit TetEditor(TetMesh& mesh, int32_t locked = 0) : mesh_(mesh), tets_(mesh.tets), locked_(locked)
     {
         const size_t n = mesh.points.size();
         alive_.assign(tets_.size(), 1);
@@ -84,6 +86,12 @@ public:
     size_t size() const { return tets_.size(); }
     size_t point_count() const { return mesh_.points.size(); }
     bool alive(int32_t t) const { return alive_[t] != 0; }
+    bool locked(int32_t t) const { return t < locked_; }
+    template <class Ids>
+    bool any_locked(const Ids& ids) const
+    {
+        return std::any_of(ids.begin(), ids.end(), [&](int32_t t) { return locked(t); });
+    }
     const Tet& tet(int32_t t) const { return tets_[t]; }
     const Vec3& point(int32_t v) const { return mesh_.points[v]; }
     Vec3& point(int32_t v) { return mesh_.points[v]; }
@@ -155,9 +163,11 @@ public:
     }
 
     // Replaces the tets `old` by `fresh` (all already positively oriented).
+    // A locked tet is never among `old`: every edit checks any_locked first.
     template <class Old, class Fresh>
     void replace(const Old& old, const Fresh& fresh)
     {
+        if (any_locked(old)) throw std::logic_error("TetEditor: an edit would replace a locked tet");
         for (int32_t t : old) alive_[t] = 0;
         for (const Tet& t : fresh) {
             const int32_t id = static_cast<int32_t>(tets_.size());
@@ -183,6 +193,7 @@ private:
 
     TetMesh& mesh_;
     std::vector<Tet> tets_;
+    int32_t locked_ = 0; // tets [0, locked_) are never replaced, so they keep their ids through commit
     std::vector<char> alive_;
     VertexTable initial_;                        // each point's tets when the editor was made
     std::vector<char> own_;                      // whether incident_[v] holds v's tets (else initial_ does)
@@ -440,7 +451,8 @@ private:
     {
         // The tets around the edge, when there are three or four.
         Few<int32_t, 4> around;
-        if (!ed_.tets_at(around, a, b) || (around.size() != 3 && around.size() != 4)) return false;
+        if (!ed_.tets_at(around, a, b) || (around.size() != 3 && around.size() != 4) || ed_.any_locked(around))
+            return false;
         const Ring c = ring(a, b, around);
         if (c.size() != around.size()) return false;
         if (c.size() == 3) {
@@ -481,7 +493,7 @@ private:
     bool remove_edge(int32_t a, int32_t b, FlipCounts& counts)
     {
         Few<int32_t, kMaxRing> around;
-        if (!ed_.tets_at(around, a, b) || around.size() < 5) return false;
+        if (!ed_.tets_at(around, a, b) || around.size() < 5 || ed_.any_locked(around)) return false;
         const Ring c = ring(a, b, around);
         if (c.size() != around.size()) return false;
         const int m = static_cast<int>(c.size());
@@ -565,6 +577,7 @@ private:
     {
         Few<int32_t, 2> two;
         if (!ed_.tets_at(two, a, b, c) || two.size() != 2) return false; // a surface face has one tet
+        if (ed_.any_locked(two)) return false;
         int32_t d = -1, e = -1;
         for (int32_t v : ed_.tet(two[0]))
             if (v != a && v != b && v != c) d = v;
@@ -602,10 +615,13 @@ double star_quality(TetEditor& ed, int32_t v)
 }
 
 // x, or for a layer point (slack > 0) the nearest place within its slack of
-// its home: on its layer and on its node's normal.
+// its home: on its layer and on its node's normal; for a point held on its
+// normal (on_normal), the nearest place on that segment.
 Vec3 within_layer(const LayerBound& layer, const Vec3& x)
 {
     if (!(layer.slack > 0)) return x;
+    if (layer.on_normal)
+        return layer.home + std::clamp(dot(x - layer.home, layer.normal), -layer.slack, layer.slack) * layer.normal;
     const Vec3 away = x - layer.home;
     const double length = norm(away);
     return length <= layer.slack ? x : layer.home + (layer.slack / length) * away;
@@ -786,7 +802,7 @@ std::vector<Tet> split_at(TetEditor& ed, const std::vector<int32_t>& around, int
 bool split_surface_sliver_edge(TetEditor& ed, int32_t q, int32_t s, double at_least)
 {
     const std::vector<int32_t> around = ed.around_edge(q, s);
-    if (around.empty()) return false;
+    if (around.empty() || ed.any_locked(around)) return false;
     double old_q = 1e300;
     Vec3 centroid;
     int count = 0;
@@ -1456,7 +1472,7 @@ template <class Better>
 int32_t split_edge_where_better(TetEditor& ed, int32_t q, int32_t s, const Better& better)
 {
     const std::vector<int32_t> around = ed.around_edge(q, s);
-    if (around.empty()) return -1;
+    if (around.empty() || ed.any_locked(around)) return -1;
     std::vector<Tet> old;
     for (int32_t t : around) old.push_back(ed.tet(t));
     const Shape before = shape_of(ed, old, face_links(ed, old, around));
@@ -1502,11 +1518,11 @@ bool split_edge_for_orthogonality(TetEditor& ed, int32_t q, int32_t s, const Ort
 } // namespace
 
 OrthoCounts improve_orthogonality(TetMesh& mesh, int32_t surface_points, double max_angle_deg, int sweeps,
-                                  const std::vector<LayerBound>& layers)
+                                  const std::vector<LayerBound>& layers, int32_t locked_tets)
 {
     OrthoCounts counts;
     const double bound = std::cos(max_angle_deg * M_PI / 180);
-    TetEditor ed(mesh);
+    TetEditor ed(mesh, locked_tets);
     const OrthoFloors floors;
     Flipper flipper(ed, Criterion::orthogonality, floors);
     FlipCounts flips;
@@ -1515,11 +1531,14 @@ OrthoCounts improve_orthogonality(TetMesh& mesh, int32_t surface_points, double 
     std::vector<char> pinned(ed.point_count(), 0);
     for (size_t v = 0; v < pinned.size(); ++v) {
         const bool layer = v < layers.size() && layers[v].slack > 0;
-        pinned[v] = int32_t(v) < surface_points ||
+        pinned[v] = int32_t(v) < surface_points || (v < layers.size() && layers[v].fixed) ||
                     (layer && distance(ed.point(int32_t(v)), layers[v].home) > layers[v].slack);
     }
     const auto at = [&](int32_t v) -> const Vec3& { return ed.point(v); };
-    const auto face_cosine = [&](int32_t t, int32_t u) { return shared_face_cosine(at, ed.tet(t), ed.tet(u)); };
+    // A face between two locked tets (inside a layer prism) is not looked at.
+    const auto face_cosine = [&](int32_t t, int32_t u) {
+        return ed.locked(t) && ed.locked(u) ? 1.0 : shared_face_cosine(at, ed.tet(t), ed.tet(u));
+    };
     // The interior faces beyond the bound, each as (t, k, u): the face
     // opposite corner k of tet t, u the tet across, t < u; in (t, k) order,
     // as a scan of every tet's faces finds them. The first sweep scans every
@@ -1744,10 +1763,10 @@ bool split_edge_for_dihedral(TetEditor& ed, int32_t q, int32_t s, const OrthoFlo
 } // namespace
 
 DihedralCounts raise_dihedral_angles(TetMesh& mesh, int32_t surface_points, double target_deg, int sweeps,
-                                     const std::vector<LayerBound>& layers)
+                                     const std::vector<LayerBound>& layers, int32_t locked_tets)
 {
     DihedralCounts counts;
-    TetEditor ed(mesh);
+    TetEditor ed(mesh, locked_tets);
     const OrthoFloors floors;
     Flipper flipper(ed, Criterion::dihedral, floors);
     FlipCounts flips;
@@ -1755,7 +1774,7 @@ DihedralCounts raise_dihedral_angles(TetMesh& mesh, int32_t surface_points, doub
     std::vector<char> pinned(original_points, 0);
     for (size_t v = 0; v < pinned.size(); ++v) {
         const bool layer = v < layers.size() && layers[v].slack > 0;
-        pinned[v] = int32_t(v) < surface_points ||
+        pinned[v] = int32_t(v) < surface_points || (v < layers.size() && layers[v].fixed) ||
                     (layer && distance(ed.point(int32_t(v)), layers[v].home) > layers[v].slack);
     }
     const auto is_pinned = [&](int32_t v) { return size_t(v) < pinned.size() && pinned[v]; };
@@ -1774,7 +1793,7 @@ DihedralCounts raise_dihedral_angles(TetMesh& mesh, int32_t surface_points, doub
         if (seen == 0) {
             // Every tet, its angles in parallel (reading only).
             const std::vector<char> below = parallel_marks(0, ed.size(), [&](size_t i) {
-                return ed.alive(int32_t(i)) && dihedral(int32_t(i)) < target_deg;
+                return ed.alive(int32_t(i)) && !ed.locked(int32_t(i)) && dihedral(int32_t(i)) < target_deg;
             });
             for (size_t i = 0; i < ed.size(); ++i)
                 if (below[i]) visit.push_back(int32_t(i));
@@ -1784,7 +1803,7 @@ DihedralCounts raise_dihedral_angles(TetMesh& mesh, int32_t surface_points, doub
         }
         last_poor.clear();
         for (int32_t t : visit)
-            if (ed.alive(t) && dihedral(t) < target_deg) last_poor.push_back(t);
+            if (ed.alive(t) && !ed.locked(t) && dihedral(t) < target_deg) last_poor.push_back(t);
         return last_poor;
     };
     // Flips at the tet, then at the tets around its edges, then moves of its

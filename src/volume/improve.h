@@ -98,8 +98,10 @@ struct SliverCounts {
 // point leaves its layer only where the mesh is poor. In slabs at once, as
 // flip_volume_criterion, with the same result on any number of threads.
 struct LayerBound {
-    Vec3 home, normal; // the point's place on its layer, the unit normal of the layer there
-    double slack = 0;  // how far it may leave the layer along the normal
+    Vec3 home, normal;   // the point's place on its layer, the unit normal of the layer there
+    double slack = 0;    // how far it may leave the layer along the normal
+    bool on_normal = false; // it moves only along `normal` through `home` (within slack), not in a ball
+    bool fixed = false;  // it never moves, as a surface point (improve_orthogonality, raise_dihedral_angles)
 };
 SliverCounts remove_slivers(TetMesh& mesh, int32_t surface_points, double threshold, int sweeps,
                             const std::vector<LayerBound>& layers = {});
@@ -140,8 +142,13 @@ struct OrthoCounts {
 // split by a new free point under the same rule (no surface edge is split,
 // so the boundary is bit-identical), twice at most. Serial over the whole
 // mesh: the same result on any number of threads.
+//
+// `locked_tets`: the first that many tets of mesh.tets (the layer prisms of
+// layers = "prisms") are never replaced, neither flipped nor split, and are
+// not improved for their own sake; a point move keeps them positive and
+// within the floors as any tet at the point, and they stay the first tets.
 OrthoCounts improve_orthogonality(TetMesh& mesh, int32_t surface_points, double max_angle_deg, int sweeps,
-                                  const std::vector<LayerBound>& layers = {});
+                                  const std::vector<LayerBound>& layers = {}, int32_t locked_tets = 0);
 
 struct DihedralCounts {
     int64_t tets_before = 0; // tets below the target at the start
@@ -161,9 +168,9 @@ struct DihedralCounts {
 // by a new free point under the same rule, twice at most. Surface points
 // never move and no surface edge is split: the boundary is bit-identical
 // (mesh.boundary_faces must hold it). Serial: the same result on any number
-// of threads.
+// of threads. `locked_tets` as for improve_orthogonality.
 DihedralCounts raise_dihedral_angles(TetMesh& mesh, int32_t surface_points, double target_deg, int sweeps,
-                                     const std::vector<LayerBound>& layers = {});
+                                     const std::vector<LayerBound>& layers = {}, int32_t locked_tets = 0);
 
 // The interior points (ids from surface_points on) of the cells a
 // finite-volume solver would still object to: the tets whose smallest

@@ -211,25 +211,70 @@ OffsetParams offset_params(const VolumeParams& params)
     return offset;
 }
 
-// The core's cell passes: sliver removal, then the dihedral and
-// non-orthogonality passes as the Delaunay construction runs them, with
-// the core's boundary (the layers' top, the caps) frozen.
-void improve_core(TetMesh& core, int32_t frozen, const VolumeParams& params, VolumeResult& result)
+// The core's sliver removal, with its boundary (the layers' top, the caps)
+// frozen.
+void remove_core_slivers(TetMesh& core, int32_t frozen, const VolumeParams& params, VolumeResult& result)
 {
     const SliverCounts slivers = remove_slivers(core, frozen, params.sliver_aspect_ratio, params.sliver_sweeps);
     result.sliver_flips = slivers.flips, result.sliver_moves = slivers.moves;
     result.sliver_splits = split_surface_slivers(core, frozen, params.sliver_aspect_ratio, kQualityFloor);
+}
+
+// How far the top of a shortened column may slide along its column in the
+// cell passes, as a fraction of its top layer's thickness.
+constexpr double kTopSlide = 0.3;
+
+// The dihedral and non-orthogonality passes, as the Delaunay construction
+// runs them, on the stack and core joined (`mesh`, its first `stack.tets`
+// tets the stack's): the stack's tets are locked, its points fixed but for
+// the top of each column, which slides along its column so that the core's
+// tets at the top can be mended, and the prisms stay prisms. A top within
+// the layer tolerance of Algorithm 4's place for it (`raw`, the offset
+// points) stays within it, so that it still counts for its layer.
+void improve_joined(TetMesh& mesh, const SurfaceMesh& surface, const LayerStack& stack,
+                    const std::vector<OffsetPoint>& raw, double tolerance, VolumeResult& result)
+{
+    const int32_t n = static_cast<int32_t>(surface.points.size());
+    const int32_t L = stack.layers;
+    std::vector<const OffsetPoint*> place(n, nullptr); // each node's layermaking point of layer L
+    for (const OffsetPoint& p : raw)
+        if (!p.filler && p.layer == L) place[p.generator] = &p;
+    std::vector<LayerBound> bounds(mesh.points.size());
+    for (size_t k = 0; k < stack.points.size(); ++k) {
+        LayerBound& bound = bounds[n + k];
+        const int32_t v = stack.point_generator[k];
+        if (stack.point_layer[k] != L || L == 0 || stack.first[v] < 0) {
+            bound.fixed = true;
+            continue;
+        }
+        const Vec3& top = stack.points[k];
+        const Vec3& below = L >= 2 ? stack.points[stack.first[v] + L - 2] : surface.points[v];
+        // Within the tolerance of its place while it is there; a top the
+        // stack already moved beyond it (a shortened column) kTopSlide of
+        // its layer's thickness.
+        const double allowed = place[v] ? tolerance * place[v]->spacing : 0.0;
+        const double off = place[v] ? distance(top, place[v]->position) : 0.0;
+        const double slack = off <= allowed ? allowed - off : kTopSlide * distance(top, below);
+        bound.fixed = !(slack > 0);
+        bound.home = top;
+        bound.normal = normalized(top - below);
+        bound.slack = slack;
+        bound.on_normal = true;
+    }
+    const int32_t locked = static_cast<int32_t>(stack.tets.size());
     constexpr double kDihedralTarget = 12.0;
     const auto cell_passes = Clock::now();
-    const DihedralCounts dihedral = raise_dihedral_angles(core, frozen, kDihedralTarget, 8);
+    const DihedralCounts dihedral = raise_dihedral_angles(mesh, n, kDihedralTarget, 8, bounds, locked);
     result.dihedral_tets_before = dihedral.tets_before;
     result.dihedral_flips = dihedral.flips, result.dihedral_moves = dihedral.moves;
     result.dihedral_splits = dihedral.splits;
     for (int round = 0; round < 3; ++round) {
-        const OrthoCounts ortho = improve_orthogonality(core, frozen, 65.0, round == 0 ? 12 : 4);
+        bounds.resize(mesh.points.size()); // points the passes added are free
+        const OrthoCounts ortho = improve_orthogonality(mesh, n, 65.0, round == 0 ? 12 : 4, bounds, locked);
         if (round == 0) result.ortho_faces_before = ortho.faces_before;
         result.ortho_flips += ortho.flips, result.ortho_moves += ortho.moves, result.ortho_splits += ortho.splits;
-        const DihedralCounts again = raise_dihedral_angles(core, frozen, kDihedralTarget, 8);
+        bounds.resize(mesh.points.size());
+        const DihedralCounts again = raise_dihedral_angles(mesh, n, kDihedralTarget, 8, bounds, locked);
         result.dihedral_flips += again.flips, result.dihedral_moves += again.moves;
         result.dihedral_splits += again.splits;
         if (ortho.flips + ortho.moves + again.flips + again.moves + again.splits == 0) break;
@@ -336,8 +381,7 @@ void build_stacked_mesh(const SurfaceMesh& surface, const FeatureSize& sizing, c
     result.seconds_insertion = seconds_since(t0);
     const int32_t frozen = static_cast<int32_t>(boundary.points.size());
     t0 = Clock::now();
-    if (params.improve) improve_core(core, frozen, params, result);
-    result.seconds_slivers = seconds_since(t0);
+    if (params.improve) remove_core_slivers(core, frozen, params, result);
 
     // The two joined.
     TetMesh& mesh = result.mesh;
@@ -350,6 +394,8 @@ void build_stacked_mesh(const SurfaceMesh& surface, const FeatureSize& sizing, c
     mesh.boundary_faces = surface.triangles;
     mesh.boundary_patch = surface.triangle_patch;
     if (mesh.boundary_patch.size() != mesh.boundary_faces.size()) mesh.boundary_patch.assign(mesh.boundary_faces.size(), 0);
+    if (params.improve) improve_joined(mesh, surface, stack, raw, params.layer_tolerance, result);
+    result.seconds_slivers = seconds_since(t0);
 
     // Attribution: surface points themselves, layer points their column,
     // core points a neighbour's generator (passes over the tets until each
@@ -403,7 +449,7 @@ void build_stacked_mesh(const SurfaceMesh& surface, const FeatureSize& sizing, c
     for (size_t k = 0; k < raw.size(); ++k) {
         const OffsetPoint& p = raw[k];
         if (p.filler || p.layer > stack.layers || stack.first[p.generator] < 0) continue;
-        final_points.push_back({static_cast<int32_t>(k), stack.points[stack.first[p.generator] + p.layer - 1]});
+        final_points.push_back({static_cast<int32_t>(k), mesh.points[n + stack.first[p.generator] + p.layer - 1]});
     }
     result.layers = account_layers(surface, sizing, params.M, params.L_min, raw, raw, fates, final_points,
                                    params.layer_tolerance);

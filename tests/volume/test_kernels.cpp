@@ -259,6 +259,66 @@ TEST(KernelEdgeRemoval, AnEdgeWithSevenTetsIsReplacedByTheBestOfItsTriangulation
     expect_edge_removed(7, 3.004, 10.0, 17.504, 13.619); // 42 triangulations, 23 without an inverted tet
 }
 
+// Locked tets (the layer prisms of layers = "prisms") are never replaced:
+// with one tet around the edge (a, b) locked, the edge removal that mends
+// the flat tet is refused, and no other edit applies (every other edge is a
+// surface edge), so the mesh stays as it was.
+TEST(KernelLockedTets, AnEdgeRemovalThatWouldReplaceALockedTetIsNotMade)
+{
+    const TetMesh before = edge_with_a_flat_tet(5);
+    TetMesh mesh = before;
+    const DihedralCounts counts =
+        raise_dihedral_angles(mesh, static_cast<int32_t>(mesh.points.size()), 15.0, 4, {}, /*locked_tets=*/1);
+    EXPECT_EQ(counts.tets_before, 1);
+    EXPECT_EQ(counts.flips + counts.moves + counts.splits, 0);
+    EXPECT_EQ(mesh.tets, before.tets);
+    // Unlocked, the same pass removes the edge (expect_edge_removed).
+    mesh = before;
+    EXPECT_EQ(raise_dihedral_angles(mesh, static_cast<int32_t>(mesh.points.size()), 15.0, 4).flips, 1);
+}
+
+// A locked tet is not improved for its own sake: the flat tet locked (moved
+// to the front) is not counted below the target, and nothing changes.
+TEST(KernelLockedTets, ALockedTetIsNotATarget)
+{
+    TetMesh mesh = edge_with_a_flat_tet(5);
+    std::rotate(mesh.tets.begin(), mesh.tets.end() - 1, mesh.tets.end()); // the flat tet (a, b, c_4, c_0) first
+    const std::vector<Tet> tets = mesh.tets;
+    const DihedralCounts counts =
+        raise_dihedral_angles(mesh, static_cast<int32_t>(mesh.points.size()), 15.0, 4, {}, /*locked_tets=*/1);
+    EXPECT_EQ(counts.tets_before, 0);
+    EXPECT_EQ(mesh.tets, tets);
+}
+
+// A point held on its normal (LayerBound::on_normal: the top of a layer
+// column) moves only along that line, within its slack: the centre of an
+// octahedron, off its middle, is moved by the dihedral pass along z alone.
+TEST(KernelLockedTets, APointHeldOnItsNormalMovesAlongItOnly)
+{
+    std::vector<Vec3> points = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}, {0.1, 0.05, 0.6}};
+    std::vector<Tet> tets;
+    for (int32_t x : {0, 1})
+        for (int32_t y : {2, 3})
+            for (int32_t z : {4, 5}) tets.push_back({x, y, z, 6});
+    TetMesh mesh = tet_mesh(points, tets);
+    std::vector<LayerBound> bounds(points.size());
+    bounds[6] = {.home = points[6], .normal = {0, 0, 1}, .slack = 0.4, .on_normal = true};
+    const double before = smallest_dihedral(mesh);
+    const DihedralCounts counts = raise_dihedral_angles(mesh, 6, 30.0, 8, bounds);
+    EXPECT_GT(counts.moves, 0);
+    EXPECT_GT(smallest_dihedral(mesh), before);
+    const Vec3& centre = mesh.points[6];
+    EXPECT_EQ(centre.x, 0.1);
+    EXPECT_EQ(centre.y, 0.05);
+    EXPECT_LT(centre.z, 0.6);
+    EXPECT_GE(centre.z, 0.6 - 0.4 - 1e-12);
+    // A fixed point does not move at all (the pass may split edges instead).
+    mesh = tet_mesh(points, tets);
+    bounds[6] = {.fixed = true};
+    raise_dihedral_angles(mesh, 6, 30.0, 8, bounds);
+    EXPECT_EQ(mesh.points[6], points[6]);
+}
+
 // ---- Face non-orthogonality ---------------------------------------------
 
 // Two tets on the triangle (0,0,0), (1,0,0), (0,1,0), their apexes (0,0,1)
