@@ -608,10 +608,15 @@ CaseResult run_and_write(const std::filesystem::path& dir, const CaseConfig& con
                 checks = openfoam_cell_checks(mesh, v.adjacency, c.cell_of_tet, c.cells);
                 return checks.grouped_cells_failing;
             };
+            // With layers = "prisms" a prism is not split for its faces'
+            // non-orthogonality alone: its three tets are flatter (their
+            // faces further off) than the prism they fill; it is split where
+            // checkMesh would fail it (`check`), or for a face at 89 degrees.
+            const double prism_bound = config.layers == LayerMode::prisms ? 89.0 : 68.0;
             LayerPrismCells cells;
             if (config.layer_prisms) {
                 cells = checked_layer_prism_cells(mesh, v.adjacency, v.point_generator, v.point_layer, v.point_filler,
-                                                  68.0, check);
+                                                  prism_bound, check);
             } else {
                 cells.cells = static_cast<int32_t>(mesh.tets.size());
                 cells.cell_of_tet.resize(mesh.tets.size());

@@ -367,7 +367,8 @@ TEST(Cli, PrismLayersReachOpenFoamIntactWhereDelaunayLayersDoNot)
                                                    << "\"\nvoxel_size = 0.5\n[volume]\nlayers = \"" << run.layers
                                                    << "\"\n" << run.openings;
         const std::string what = run.phantom + " with " + run.layers;
-        ASSERT_EQ(run_scalemesh({"run", tmp.path.string(), "-q"}).exit_code, 0) << what;
+        const CommandResult result = run_scalemesh({"run", tmp.path.string(), "-q"});
+        ASSERT_EQ(result.exit_code, 0) << what << ": " << result.err;
         const nlohmann::json report = nlohmann::json::parse(read_text(tmp.path / "report.json"));
         EXPECT_EQ(report["parameters"]["layers"], run.layers);
         const double share = report["openfoam"]["intact_prism_share"].get<double>();
