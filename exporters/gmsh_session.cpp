@@ -43,6 +43,11 @@ GmshSession::GmshSession() : lock_(gmsh_mutex())
     }
 }
 
+GmshSession::GmshSession(Host) : lock_(gmsh_mutex())
+{
+    ++g_open_sessions;
+}
+
 GmshSession::~GmshSession()
 {
     for (auto it = saved_options_.rbegin(); it != saved_options_.rend(); ++it) {

@@ -1,12 +1,16 @@
 #pragma once
 // Scoped access to the Gmsh SDK, whose state is global to the process.
 //
-// Gmsh 4.8 has no gmsh::isInitialized, and querying an option before
-// gmsh::initialize returns normally, so initialization cannot be detected from
-// outside. scalemesh therefore reaches Gmsh only through GmshSession, which
-// counts the open sessions: the first one initializes Gmsh, the last one
-// finalizes it, and nested sessions share it. Code that calls gmsh::initialize
-// directly must not hold Gmsh while a GmshSession is open.
+// Gmsh 4.8 has no gmsh::isInitialized, and no call can ask safely: before the
+// first gmsh::initialize of the process, any other call reports an error
+// through options that hold whatever the memory held, which now and then
+// ends the process (exit(1), without a word). scalemesh therefore reaches
+// Gmsh only through GmshSession, which counts the open sessions: the first
+// one initializes Gmsh, the last one finalizes it, and nested sessions share
+// it. A host's own session (the library's mesh_gmsh_model) is adopted for
+// the length of a call, so that nested sessions neither initialize nor
+// finalize it. Code that calls gmsh::initialize directly must not hold Gmsh
+// while a GmshSession is open.
 
 #include <filesystem>
 #include <memory>
@@ -24,6 +28,10 @@ public:
     // without reading the user's configuration files when no session is open,
     // and silences its terminal output: the library never prints.
     GmshSession();
+    // The host's session, open already: counted and locked as a session of
+    // ours, never finalized, its options untouched.
+    struct Host {};
+    explicit GmshSession(Host);
     // Restores every option changed through set_option, then finalizes Gmsh
     // when this session initialized it. Never throws.
     ~GmshSession();

@@ -5,10 +5,12 @@
 // that already use the Gmsh SDK (C++, or Python through the scalemesh module,
 // which shares the process's libgmsh).
 //
-// The host owns the Gmsh session: scalemesh never calls gmsh::initialize,
-// gmsh::finalize or gmsh::option::set*, and calls Gmsh from the calling
-// thread only. Gmsh is not thread safe: the host must not call Gmsh from
-// another thread during the call.
+// The host owns the Gmsh session: scalemesh never calls gmsh::initialize or
+// gmsh::finalize, and calls Gmsh from the calling thread only. With
+// layers = "prisms" it meshes the core on a model of its own beside the
+// host's, with options of its own, and removes the model and restores the
+// options and the current model before returning. Gmsh is not thread safe:
+// the host must not call Gmsh from another thread during the call.
 
 #include "scalemesh/mesh.h"
 

@@ -150,7 +150,9 @@ MeshResult mesh_surface(const SurfaceInput& surface, const MeshOptions& options 
 // Two process-wide effects remain on this path: a .msh file is read through
 // a Gmsh session of the library's own (gmsh::initialize and finalize), so do
 // not call it on a .msh while the host has Gmsh initialised (use
-// mesh_gmsh_model, gmsh_model.h, on a model the host merged instead); and a
+// mesh_gmsh_model, gmsh_model.h, on a model the host merged instead; the
+// same holds for both functions with layers = "prisms", whose core Gmsh
+// meshes); and a
 // MetaImage read swaps std::cerr's buffer while ITK's MetaIO reads (it
 // reports truncated compressed data only there), under the importers' lock.
 MeshResult mesh_image(const std::filesystem::path& path, const MeshOptions& options = {},

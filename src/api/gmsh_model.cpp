@@ -11,6 +11,7 @@
 #include "scalemesh/gmsh_model.h"
 
 #include "core/errors.h"
+#include "exporters/gmsh_session.h"
 
 #include <gmsh.h>
 
@@ -299,6 +300,9 @@ GmshModelResult mesh_gmsh_model(const GmshModelOptions& model, const MeshOptions
     if (model.volume_name.empty())
         throw InputError("the volume's physical group has no name", "give volume_name, e.g. \"fluid\"");
     require_session();
+    // The host's session, adopted: the stages that reach Gmsh (the core of
+    // layers = "prisms") work beside the host's model in it.
+    const GmshSession host(GmshSession::Host{});
     const Selection selection = gmsh_call("reading the surface entities", [&] { return select_surfaces(model); });
     const SurfaceInput surface = gmsh_call("reading the triangles", [&] { return read_surface(selection); });
     GmshModelResult out;

@@ -1,10 +1,10 @@
 #include "volume/core_mesh.h"
 
 #include "core/errors.h"
+#include "exporters/gmsh_session.h"
 
 #include <gmsh.h>
 
-#include <mutex>
 #include <unordered_map>
 #include <string>
 #include <utility>
@@ -13,71 +13,12 @@
 namespace scalemesh {
 namespace {
 
-std::mutex gmsh_mutex;
-
 struct PointHash {
     size_t operator()(const Vec3& x) const
     {
         const std::hash<double> h;
         return h(x.x) ^ (h(x.y) * 0x9e3779b97f4a7c15ull) ^ (h(x.z) * 0xbf58476d1ce4e5b9ull);
     }
-};
-
-// Whether a Gmsh session is open: without one, gmsh::model::list throws or
-// lists nothing (an open session always has a model).
-bool session_open()
-{
-    std::vector<std::string> models;
-    try {
-        gmsh::model::list(models);
-    } catch (...) {
-        return false;
-    }
-    return !models.empty();
-}
-
-// A Gmsh model of our own for the length of a scope: a session of its own
-// when none is open, else a model beside the caller's, whose current model
-// and the options set through `set` come back on leaving.
-class GmshScope {
-public:
-    GmshScope()
-    {
-        own_ = !session_open();
-        if (own_) {
-            gmsh::initialize();
-        } else {
-            gmsh::model::getCurrent(previous_);
-        }
-        set("General.Terminal", 0);
-        set("General.Verbosity", 1);
-        gmsh::model::add("scalemesh core");
-    }
-    ~GmshScope()
-    {
-        try {
-            gmsh::model::remove();
-            if (own_) {
-                gmsh::finalize();
-                return;
-            }
-            for (auto it = saved_.rbegin(); it != saved_.rend(); ++it) gmsh::option::setNumber(it->first, it->second);
-            if (!previous_.empty()) gmsh::model::setCurrent(previous_);
-        } catch (...) {
-        }
-    }
-    void set(const std::string& name, double value)
-    {
-        double old = 0;
-        gmsh::option::getNumber(name, old);
-        saved_.emplace_back(name, old);
-        gmsh::option::setNumber(name, value);
-    }
-
-private:
-    bool own_ = false;
-    std::string previous_;
-    std::vector<std::pair<std::string, double>> saved_;
 };
 
 // Whether point x is inside the closed component `c` of `boundary` (by
@@ -117,11 +58,14 @@ std::string last_error()
 TetMesh mesh_core(const SurfaceMesh& boundary, const std::vector<Vec3>& inside)
 {
     const size_t nb = boundary.points.size();
-    std::lock_guard<std::mutex> lock(gmsh_mutex);
-    GmshScope scope;
-    scope.set("Mesh.Algorithm3D", 1); // Delaunay
-    scope.set("Mesh.Optimize", 1);
-    scope.set("Mesh.OptimizeThreshold", 0.3);
+    GmshSession session;
+    // An error Gmsh meets throws (caught below, and named) instead of ending
+    // the process, whatever a host's session had set.
+    session.set_option("General.AbortOnError", 3);
+    session.set_option("Mesh.Algorithm3D", 1); // Delaunay
+    session.set_option("Mesh.Optimize", 1);
+    session.set_option("Mesh.OptimizeThreshold", 0.3);
+    const ScratchModel model("scalemesh_core");
 
     TetMesh mesh;
     mesh.points = boundary.points;

@@ -22,10 +22,10 @@ namespace scalemesh {
 // Throws StageError naming what Gmsh reported when it cannot mesh the
 // region or changes its boundary.
 //
-// Runs in a Gmsh session of its own when none is open; inside a caller's
-// session (the library's mesh_gmsh_model, Python) it works on a model of
-// its own, then removes it and makes the caller's model current again, with
-// the options it set restored. One call at a time (Gmsh is not reentrant).
+// Runs in a GmshSession (exporters/gmsh_session.h): one of its own, or
+// inside an open one (the host's, adopted by mesh_gmsh_model), on a scratch
+// model removed at the end, the caller's model current again and the
+// options it set restored. One call at a time (Gmsh is not reentrant).
 // `inside` are points to mesh with (embedded in the volume, after the
 // boundary's in mesh.points, in their order); each must lie strictly inside
 // the region. Gmsh 4.8 adds no point of its own to a volume bounded by a
