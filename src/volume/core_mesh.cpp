@@ -128,7 +128,7 @@ TetMesh mesh_core(const SurfaceMesh& boundary, const std::vector<Vec3>& inside)
             std::vector<std::vector<int>> in(volumes.size());
             for (size_t k = 0; k < inside.size(); ++k) {
                 size_t r = 0;
-                for (int32_t c = 0, region = 0; c < count; ++c) {
+                for (int32_t c = 0, region = 0; c < count && volumes.size() > 1; ++c) {
                     if (!(volume6[c] > 0)) continue;
                     if (encloses(boundary, component, c, inside[k])) r = region;
                     ++region;
