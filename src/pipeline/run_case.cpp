@@ -140,7 +140,38 @@ std::vector<std::string> openfoam_check_warnings(const OpenFoamCellChecks& check
     return {line};
 }
 
-std::vector<std::string> floor_warnings(const CaseConfig& config, const PipelineRun& run)
+std::vector<std::string> cell_floor_warnings(const CaseConfig& config, const CellFloors& cells)
+{
+    std::vector<std::string> warnings;
+    char line[512];
+    if (cells.min_aspect_ratio < config.min_aspect_ratio) {
+        std::snprintf(line, sizeof line,
+                      "the worst %s has aspect ratio %.4f, below the floor of %g ([volume] min_aspect_ratio); %.3f%% "
+                      "of them are below 0.1",
+                      cells.what.c_str(), cells.min_aspect_ratio, config.min_aspect_ratio,
+                      100 * cells.fraction_below_0_1);
+        warnings.push_back(line);
+    }
+    if (cells.min_dihedral_deg < config.min_dihedral_deg) {
+        std::snprintf(line, sizeof line,
+                      "the smallest dihedral angle of a %s is %.2f degrees, below the floor of %g ([volume] "
+                      "min_dihedral_deg)",
+                      cells.what.c_str(), cells.min_dihedral_deg, config.min_dihedral_deg);
+        warnings.push_back(line);
+    }
+    // checkMesh's own floor: it counts a face beyond 70 degrees as
+    // severely non-orthogonal (the cell passes could not flip or move it).
+    if (cells.max_non_orthogonality_deg > kSevereNonOrthogonality) {
+        std::snprintf(line, sizeof line,
+                      "the worst interior face is %.2f degrees off orthogonal, beyond the %g that checkMesh counts as "
+                      "severe; a change of M or K remeshes the cells around it",
+                      cells.max_non_orthogonality_deg, kSevereNonOrthogonality);
+        warnings.push_back(line);
+    }
+    return warnings;
+}
+
+std::vector<std::string> floor_warnings(const CaseConfig& config, const PipelineRun& run, bool cells_later)
 {
     std::vector<std::string> warnings = run.warnings; // the input's (units)
     if (!run.volume) return warnings;
@@ -174,31 +205,42 @@ std::vector<std::string> floor_warnings(const CaseConfig& config, const Pipeline
                       100 * a.coverage(), 100 * config.min_layer_coverage, why.c_str());
         warnings.push_back(line);
     }
+    if (cells_later) return warnings;
     const QualityReport& q = v.after_slivers;
-    if (q.min_aspect_ratio < config.min_aspect_ratio) {
-        std::snprintf(line, sizeof line,
-                      "the worst tet has aspect ratio %.4f, below the floor of %g ([volume] min_aspect_ratio); %.3f%% "
-                      "of tets are below 0.1",
-                      q.min_aspect_ratio, config.min_aspect_ratio, 100 * q.fraction_below_0_1);
-        warnings.push_back(line);
-    }
-    if (q.min_dihedral_deg < config.min_dihedral_deg) {
-        std::snprintf(line, sizeof line,
-                      "the smallest dihedral angle is %.2f degrees, below the floor of %g ([volume] min_dihedral_deg)",
-                      q.min_dihedral_deg, config.min_dihedral_deg);
-        warnings.push_back(line);
-    }
-    // checkMesh's own floor: it counts a face beyond 70 degrees as
-    // severely non-orthogonal (the cell passes could not flip or move it).
-    if (v.max_non_orthogonality_deg > kSevereNonOrthogonality) {
-        std::snprintf(line, sizeof line,
-                      "the worst interior face is %.2f degrees off orthogonal, beyond the %g that checkMesh counts as "
-                      "severe; a change of M or K remeshes the cells around it",
-                      v.max_non_orthogonality_deg, kSevereNonOrthogonality);
-        warnings.push_back(line);
-    }
+    for (std::string& w : cell_floor_warnings(config, {.min_aspect_ratio = q.min_aspect_ratio,
+                                                       .fraction_below_0_1 = q.fraction_below_0_1,
+                                                       .min_dihedral_deg = q.min_dihedral_deg,
+                                                       .max_non_orthogonality_deg = v.max_non_orthogonality_deg,
+                                                       .what = "tet"}))
+        warnings.push_back(std::move(w));
     return warnings;
 }
+
+namespace {
+
+// The quality of the tets written as cells of their own (every tet not in
+// a cell of several), and OpenFOAM's worst face from `checks`.
+CellFloors tet_cell_floors(const TetMesh& mesh, const LayerPrismCells& cells, const OpenFoamCellChecks& checks)
+{
+    std::vector<int32_t> tets_of(cells.cells, 0);
+    for (int32_t c : cells.cell_of_tet) ++tets_of[c];
+    CellFloors floors{.min_aspect_ratio = 1, .min_dihedral_deg = 90,
+                      .max_non_orthogonality_deg = checks.max_non_orthogonality_deg, .what = "tet cell"};
+    int64_t own = 0, below = 0;
+    for (size_t t = 0; t < mesh.tets.size(); ++t) {
+        if (tets_of[cells.cell_of_tet[t]] != 1) continue;
+        const Tet& x = mesh.tets[t];
+        const Vec3 &a = mesh.points[x[0]], &b = mesh.points[x[1]], &c = mesh.points[x[2]], &d = mesh.points[x[3]];
+        const double aspect = tet_aspect_ratio(a, b, c, d);
+        floors.min_aspect_ratio = std::min(floors.min_aspect_ratio, aspect);
+        floors.min_dihedral_deg = std::min(floors.min_dihedral_deg, tet_min_dihedral_deg(a, b, c, d));
+        ++own, below += aspect < 0.1;
+    }
+    floors.fraction_below_0_1 = own ? static_cast<double>(below) / static_cast<double>(own) : 0.0;
+    return floors;
+}
+
+} // namespace
 
 void write_text_file(const std::filesystem::path& path, const std::string& text)
 {
@@ -430,6 +472,10 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
                               {"layer_prisms_refused", result.layer_prisms_refused},
                               {"intact_prism_share", intact_prism_share(result)},
                               {"max_non_orthogonality_deg", checks.max_non_orthogonality_deg},
+                              {"tet_cells_min_dihedral_deg",
+                               result.tet_cells ? nlohmann::json(result.tet_cells->min_dihedral_deg) : nlohmann::json()},
+                              {"tet_cells_min_aspect_ratio",
+                               result.tet_cells ? nlohmann::json(result.tet_cells->min_aspect_ratio) : nlohmann::json()},
                               {"checks",
                                {{"max_skewness", checks.max_skewness},
                                 {"min_pyramid_height", checks.min_pyramid_height},
@@ -551,7 +597,11 @@ CaseResult run_and_write(const std::filesystem::path& dir, const CaseConfig& con
     // through remove_pending_outputs) leaves the case directory as it was.
     // The polyMesh and case writers hand their files over uncommitted; all
     // are moved into place together, with interruptions held back.
-    result.warnings = floor_warnings(config, result.run);
+    // With layers = "prisms" written as prism cells, the cell floors are
+    // judged on the cells the solver gets (below): a layer prism's own
+    // tets are flat by design and never reach it.
+    const bool prism_cells = config.layers == LayerMode::prisms && config.openfoam && config.layer_prisms;
+    result.warnings = floor_warnings(config, result.run, prism_cells);
     result.input_warnings = std::min(result.run.warnings.size(), result.warnings.size());
     result.orphaned_partials = orphans;
     StagedOutputs pending;
@@ -627,6 +677,11 @@ CaseResult run_and_write(const std::filesystem::path& dir, const CaseConfig& con
             result.layer_prisms_refused = cells.refused;
             result.openfoam_checks = checks;
             for (const std::string& w : openfoam_check_warnings(checks)) result.warnings.push_back(w);
+            if (prism_cells) {
+                const CellFloors floors = tet_cell_floors(mesh, cells, checks);
+                result.tet_cells = floors;
+                for (const std::string& w : cell_floor_warnings(config, floors)) result.warnings.push_back(w);
+            }
             const PolyMeshCounts counts =
                 write_polymesh(mesh, dir, {.binary = config.openfoam_binary, .scale = 1e-3, .patch_types = types,
                                      .adjacency = &result.run.volume->adjacency,

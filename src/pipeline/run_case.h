@@ -12,6 +12,16 @@
 
 namespace scalemesh {
 
+// The quality the cell floors judge: of every tet, or (layers = "prisms")
+// of the tets written as cells of their own, with OpenFOAM's worst face.
+struct CellFloors {
+    double min_aspect_ratio = 1;
+    double fraction_below_0_1 = 0; // of the cells measured, those below aspect ratio 0.1
+    double min_dihedral_deg = 90;
+    double max_non_orthogonality_deg = 0;
+    std::string what = "tet";      // the cells measured, for the sentences ("tet", "tet cell")
+};
+
 struct CaseResult {
     PipelineRun run;
     std::vector<std::filesystem::path> written; // in the order written, report.json last
@@ -22,6 +32,8 @@ struct CaseResult {
     int64_t layer_prisms = 0;                   // its cells of three tets filling a layer prism
     int64_t layer_prisms_refused = 0;           // prisms filled by three tets left as tets (not star-shaped, or a
                                                 // face beyond the bound by the tets' or by OpenFOAM's measure)
+    std::optional<CellFloors> tet_cells;        // layers = "prisms" with prism cells: the tets written as cells
+                                                // of their own, which the cell floors judge
     OpenFoamCellChecks openfoam_checks;         // OpenFOAM's own checks on the written cells (its worst face
                                                 // non-orthogonality among them)
     bool flow_case = false;                     // whether 0/U and 0/p were written
@@ -49,7 +61,15 @@ std::vector<std::filesystem::path> stale_outputs(const CaseConfig& config,
 // many.
 int64_t remove_orphaned_partials(const std::filesystem::path& dir);
 
-std::vector<std::string> floor_warnings(const CaseConfig& config, const PipelineRun& run);
+// With `cells_later`, the cell floors (aspect ratio, dihedral angle,
+// non-orthogonality) are left out: the caller judges them on the cells it
+// writes (cell_floor_warnings), as for layers = "prisms".
+std::vector<std::string> floor_warnings(const CaseConfig& config, const PipelineRun& run, bool cells_later = false);
+
+// The cell floors of the case ([volume] min_aspect_ratio, min_dihedral_deg,
+// and checkMesh's 70 degrees of non-orthogonality) against `cells`: one
+// sentence per floor missed, naming the kind of cell measured.
+std::vector<std::string> cell_floor_warnings(const CaseConfig& config, const CellFloors& cells);
 
 // A sentence when faces of the OpenFOAM cells would still fail checkMesh
 // (OpenFoamCellChecks::checkmesh_failures: only faces between single tets

@@ -377,6 +377,11 @@ TEST(Cli, PrismLayersReachOpenFoamIntactWhereDelaunayLayersDoNot)
         EXPECT_TRUE(report["volume"]["boundary_matches_surface"].get<bool>()) << what;
         if (run.layers == "prisms") EXPECT_GE(share, 0.95) << what;
         else EXPECT_LT(share, 0.95) << what;
+        // The cell floors are judged on the tets written as cells of their
+        // own where the layers are built as prisms.
+        const auto& tet_cells = report["openfoam"]["tet_cells_min_dihedral_deg"];
+        if (run.layers == "prisms") EXPECT_TRUE(tet_cells.is_number()) << what;
+        else EXPECT_TRUE(tet_cells.is_null()) << what;
     }
 }
 

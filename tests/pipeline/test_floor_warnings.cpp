@@ -29,6 +29,29 @@ TEST(FloorWarnings, AFaceBeyondCheckMeshsSevereNonOrthogonalityIsWarnedOf)
     EXPECT_NE(warnings[0].find("checkMesh"), std::string::npos) << warnings[0];
 }
 
+// With layer prisms written as cells (layers = "prisms"), the cell floors
+// are left out of floor_warnings and judged on the tet cells instead,
+// whose sentences say so.
+TEST(FloorWarnings, TheCellFloorsCanBeJudgedOnTheCellsWritten)
+{
+    CaseConfig config;
+    PipelineRun run;
+    run.volume.emplace();
+    run.volume->after_slivers.min_aspect_ratio = 0.01; // a layer prism's own flat tets
+    run.volume->after_slivers.min_dihedral_deg = 2;
+    run.volume->max_non_orthogonality_deg = 85;
+    EXPECT_EQ(floor_warnings(config, run).size(), 3u);
+    EXPECT_TRUE(floor_warnings(config, run, /*cells_later=*/true).empty());
+
+    EXPECT_TRUE(cell_floor_warnings(config, {.min_aspect_ratio = 0.2, .min_dihedral_deg = 11,
+                                             .max_non_orthogonality_deg = 69, .what = "tet cell"})
+                    .empty());
+    const std::vector<std::string> warnings = cell_floor_warnings(
+        config, {.min_aspect_ratio = 0.2, .min_dihedral_deg = 7.34, .max_non_orthogonality_deg = 69, .what = "tet cell"});
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_NE(warnings[0].find("of a tet cell is 7.34 degrees"), std::string::npos) << warnings[0];
+}
+
 // Faces of the OpenFOAM cells that checkMesh would fail (left on single
 // tets, nothing to split back) are warned of; faces beyond the split-back
 // margins alone are not.
