@@ -6,7 +6,8 @@ directory, with its input file paths made absolute and `layers = "prisms"`
 added to its [volume] section, runs `scalemesh run` and OpenFOAM's checkMesh on
 it, and prints one Markdown row per case from its report.json: the share of
 wall faces x layers written as single prism cells, the largest face
-non-orthogonality OpenFOAM sees, the layer account's coverage, the columns the
+non-orthogonality OpenFOAM sees, the smallest dihedral angle of the tets
+written as cells of their own, the layer account's coverage, the columns the
 stack shortened and checkMesh's verdict. These are the figures of
 docs/case-file.md's `layers` row.
 
@@ -56,8 +57,9 @@ def main():
                                  if os.path.isfile(os.path.join(REPO, "cases", d, "scalemesh.toml")))
     env = dict(os.environ)
     env.setdefault("WM_PROJECT_DIR", "/usr/share/openfoam")
-    print("| case | intact prisms | max non-orthogonality (deg) | layer coverage | shortened columns | checkMesh |")
-    print("|---|---|---|---|---|---|")
+    print("| case | intact prisms | max non-orthogonality (deg) | min dihedral of tet cells (deg) | layer coverage | "
+          "shortened columns | checkMesh |")
+    print("|---|---|---|---|---|---|---|")
     failed = False
     with tempfile.TemporaryDirectory(prefix="prism-layers-") as scratch:
         for name in names:
@@ -65,7 +67,7 @@ def main():
             prism_case(os.path.join(REPO, "cases", name), case)
             run = subprocess.run([args.scalemesh, "run", case, "-q"], capture_output=True, text=True)
             if run.returncode != 0:
-                print(f"| {name} | run failed ({run.returncode}): {run.stderr.strip()} | | | | |")
+                print(f"| {name} | run failed ({run.returncode}): {run.stderr.strip()} | | | | | |")
                 failed = True
                 continue
             check = subprocess.run(["checkMesh", "-case", case], capture_output=True, text=True, env=env)
@@ -75,7 +77,7 @@ def main():
                 report = json.load(f)
             foam, layers, volume = report["openfoam"], report["layers"], report["volume"]
             print(f"| {name} | {100 * foam['intact_prism_share']:.1f}% | {foam['max_non_orthogonality_deg']:.1f} | "
-                  f"{100 * layers['coverage']:.1f}% | {volume['stack_shortened_nodes']} of {layers['wall_nodes']} | "
+                  f"{foam['tet_cells_min_dihedral_deg']:.2f} | {100 * layers['coverage']:.1f}% | {volume['stack_shortened_nodes']} of {layers['wall_nodes']} | "
                   f"{verdict} |")
             sys.stdout.flush()
     return 1 if failed else 0
