@@ -147,16 +147,17 @@ std::vector<std::string> cell_floor_warnings(const CaseConfig& config, const Cel
     if (cells.min_aspect_ratio < config.min_aspect_ratio) {
         std::snprintf(line, sizeof line,
                       "the worst %s has aspect ratio %.4f, below the floor of %g ([volume] min_aspect_ratio); %.3f%% "
-                      "of them are below 0.1",
+                      "of %ss are below 0.1",
                       cells.what.c_str(), cells.min_aspect_ratio, config.min_aspect_ratio,
-                      100 * cells.fraction_below_0_1);
+                      100 * cells.fraction_below_0_1, cells.what.c_str());
         warnings.push_back(line);
     }
     if (cells.min_dihedral_deg < config.min_dihedral_deg) {
+        // Of every tet the sentence is the one it has always been.
+        const std::string of = cells.what == "tet" ? "" : " of a " + cells.what;
         std::snprintf(line, sizeof line,
-                      "the smallest dihedral angle of a %s is %.2f degrees, below the floor of %g ([volume] "
-                      "min_dihedral_deg)",
-                      cells.what.c_str(), cells.min_dihedral_deg, config.min_dihedral_deg);
+                      "the smallest dihedral angle%s is %.2f degrees, below the floor of %g ([volume] min_dihedral_deg)",
+                      of.c_str(), cells.min_dihedral_deg, config.min_dihedral_deg);
         warnings.push_back(line);
     }
     // checkMesh's own floor: it counts a face beyond 70 degrees as
