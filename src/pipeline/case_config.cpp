@@ -84,6 +84,22 @@ public:
         return v;
     }
 
+    // The string `key` if given, refused unless it is one of `choices`: the
+    // error says `key = "value" is not <what>`, with `hint` (by default the
+    // choices quoted, as in: choose "ascii" or "binary").
+    std::optional<std::string> choice(const std::string& key, const std::vector<std::string>& choices,
+                                      const std::string& what, std::string hint = "") const
+    {
+        const std::optional<std::string> v = get<std::string>(key);
+        if (!v || std::find(choices.begin(), choices.end(), *v) != choices.end()) return v;
+        if (hint.empty()) {
+            hint = "choose";
+            for (size_t i = 0; i < choices.size(); ++i)
+                hint += std::string(i == 0 ? " " : i + 1 == choices.size() ? " or " : ", ") + "\"" + choices[i] + "\"";
+        }
+        throw InputError(where(key) + " = \"" + *v + "\" is not " + what, hint);
+    }
+
     Length length(const std::string& key) const
     {
         const toml::node& node = *table_->get(key);
@@ -186,11 +202,11 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
     if (int(!config.labels.empty()) + int(config.threshold.has_value()) + int(config.level_set) > 1)
         throw InputError(source + ": [input] labels, threshold and level_set exclude each other",
                          "give labels for a label map, threshold for an intensity image, or level_set = true");
-    const std::string keep = input.get<std::string>("keep").value_or("all");
-    if (keep != "all" && keep != "largest")
-        throw InputError(input.where("keep") + " = \"" + keep + "\" is not valid",
-                         "choose \"all\" (every region of the segmentation, the default) or \"largest\" (the region "
-                         "of the most voxels; stray islands are dropped)");
+    const std::string keep =
+        input.choice("keep", {"all", "largest"}, "valid",
+                     "choose \"all\" (every region of the segmentation, the default) or \"largest\" (the region "
+                     "of the most voxels; stray islands are dropped)")
+            .value_or("all");
     if (keep == "largest" && (config.level_set || is_surface_file(config.file)))
         throw InputError(input.where("keep") + " = \"largest\" applies to label images and phantoms",
                          "a level set or a surface file keeps its regions; remove the key");
@@ -247,22 +263,15 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
                           "min_aspect_ratio", "min_dihedral_deg"});
     config.volume = volume.get<bool>("enabled").value_or(true);
     config.growth = volume.number("growth", 1.0, 1.0, 3.0);
-    if (const auto first = volume.get<std::string>("first_layer")) {
-        if (*first == "edge") config.first_layer = FirstLayer::edge;
-        else if (*first == "paper") config.first_layer = FirstLayer::paper;
-        else
-            throw InputError(volume.where("first_layer") + " = \"" + *first + "\" is not a first-layer rule",
-                             "write first_layer = \"edge\" (thickness = surface edge length / K) or \"paper\" "
-                             "(the paper's d/M)");
-    }
-    if (const auto layers = volume.get<std::string>("layers")) {
-        if (*layers == "delaunay") config.layers = LayerMode::delaunay;
-        else if (*layers == "prisms") config.layers = LayerMode::prisms;
-        else
-            throw InputError(volume.where("layers") + " = \"" + *layers + "\" is not a layer construction",
-                             "write layers = \"delaunay\" (the method paper's layer points in one Delaunay "
-                             "triangulation) or \"prisms\" (prism layers built explicitly, the core meshed above them)");
-    }
+    if (const auto first = volume.choice("first_layer", {"edge", "paper"}, "a first-layer rule",
+                                         "write first_layer = \"edge\" (thickness = surface edge length / K) or "
+                                         "\"paper\" (the paper's d/M)"))
+        config.first_layer = *first == "edge" ? FirstLayer::edge : FirstLayer::paper;
+    if (const auto layers = volume.choice("layers", {"delaunay", "prisms"}, "a layer construction",
+                                          "write layers = \"delaunay\" (the method paper's layer points in one "
+                                          "Delaunay triangulation) or \"prisms\" (prism layers built explicitly, the "
+                                          "core meshed above them)"))
+        config.layers = *layers == "delaunay" ? LayerMode::delaunay : LayerMode::prisms;
     config.layer_tolerance = volume.number("layer_tolerance", 0.15, 0.0, 0.5, true);
     config.min_layer_coverage = volume.number("min_layer_coverage", 0.99, 0.0, 1.0);
     config.min_aspect_ratio = volume.number("min_aspect_ratio", 0.1, 0.0, 1.0);
@@ -293,10 +302,7 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
             if (!(*table)["type"])
                 throw InputError(opening.where("type") + " is missing: opening '" + spec.name + "' needs a type",
                                  "add type = \"inlet\" or type = \"outlet\" (the flow enters at inlets)");
-            const std::string type = opening.get<std::string>("type").value_or("");
-            if (type != "inlet" && type != "outlet")
-                throw InputError(opening.where("type") + " = \"" + type + "\" is not an opening type",
-                                 "choose \"inlet\" or \"outlet\"");
+            const std::string type = opening.choice("type", {"inlet", "outlet"}, "an opening type").value_or("");
             spec.type = type == "inlet" ? OpeningType::Inlet : OpeningType::Outlet;
             const auto vector = [&](const std::string& key) {
                 const toml::array* xyz = (*table)[key].as_array();
@@ -353,11 +359,9 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
                     throw InputError(opening.where("inset") + " applies to border openings only", "remove it");
             } else {
                 spec.border = true;
-                spec.side = opening.get<std::string>("border").value_or("");
                 static const std::vector<std::string> sides = {"x-", "x+", "y-", "y+", "z-", "z+"};
-                if (std::find(sides.begin(), sides.end(), spec.side) == sides.end())
-                    throw InputError(opening.where("border") + " = \"" + spec.side + "\" is not a side of the image",
-                                     "choose one of: " + join(sides));
+                spec.side = opening.choice("border", sides, "a side of the image", "choose one of: " + join(sides))
+                                .value_or("");
                 if (opening.has("radius"))
                     throw InputError(opening.where("radius") + " applies to clip planes only",
                                      "remove it: every piece of the border cross-section becomes an opening");
@@ -424,11 +428,8 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
             }
     }
     config.openfoam = output.get<bool>("openfoam").value_or(true);
-    const std::string foam_format = output.get<std::string>("openfoam_format").value_or("ascii");
-    if (foam_format != "ascii" && foam_format != "binary")
-        throw InputError(output.where("openfoam_format") + " = \"" + foam_format + "\" is not a format",
-                         "choose \"ascii\" or \"binary\"");
-    config.openfoam_binary = foam_format == "binary";
+    config.openfoam_binary =
+        output.choice("openfoam_format", {"ascii", "binary"}, "a format").value_or("ascii") == "binary";
     config.layer_prisms = output.get<bool>("layer_prisms").value_or(true);
     config.msh_version = output.get<double>("msh_version").value_or(4.1);
     if (config.msh_version != 4.1 && config.msh_version != 2.2)

@@ -6,12 +6,11 @@
 
 #include "core/tet_mesh.h"
 #include "exporters/gmsh_session.h"
+#include "support/gmsh_host.h"
 
 #include <gmsh.h>
 #include <gtest/gtest.h>
 
-#include <algorithm>
-#include <string>
 #include <utility>
 #include <vector>
 
@@ -91,12 +90,7 @@ TEST(CoreMesh, InAHostSessionLeavesTheHostsModelAndOptions)
         const TetMesh mesh = mesh_core(box, {{0.5, 0.5, 0.5}});
         expect_core_facts(box, mesh);
     }
-    std::string current;
-    gmsh::model::getCurrent(current);
-    EXPECT_EQ(current, "host");
-    std::vector<std::string> models;
-    gmsh::model::list(models);
-    EXPECT_EQ(std::count(models.begin(), models.end(), "host"), 1);
+    EXPECT_TRUE(host_model_current_and_listed_once("host"));
     double algorithm = 0;
     gmsh::option::getNumber("Mesh.Algorithm3D", algorithm);
     EXPECT_EQ(algorithm, 4);

@@ -314,7 +314,7 @@ TEST(KernelLockedTets, APointHeldOnItsNormalMovesAlongItOnly)
     EXPECT_GE(centre.z, 0.6 - 0.4 - 1e-12);
     // A fixed point does not move at all (the pass may split edges instead).
     mesh = tet_mesh(points, tets);
-    bounds[6] = {.fixed = true};
+    bounds[6] = {.home = {}, .normal = {}, .fixed = true};
     raise_dihedral_angles(mesh, 6, 30.0, 8, bounds);
     EXPECT_EQ(mesh.points[6], points[6]);
 }
