@@ -87,8 +87,63 @@ def apply_setting(toml, section, key, value):
     return "\n".join(lines)
 
 
-def scalemesh_case(binary, M, case):
-    """A scalemesh run of cases/tube at layer count M, with the test's flow."""
+def cylinder_triangles(n_around, z0, z1, n_along, caps):
+    """Triangles (three (x, y, z) each, outward) of the cylinder R = TUBE_R
+    from z0 to z1: n_around facets around, n_along rows along, and with
+    `caps` the two flat ends as fans from their centres."""
+    ring = [(TUBE_R * math.cos(2 * math.pi * i / n_around), TUBE_R * math.sin(2 * math.pi * i / n_around))
+            for i in range(n_around)]
+    tris = []
+    for k in range(n_along):
+        za, zb = z0 + (z1 - z0) * k / n_along, z0 + (z1 - z0) * (k + 1) / n_along
+        for i in range(n_around):
+            (x0, y0), (x1, y1) = ring[i], ring[(i + 1) % n_around]
+            tris.append(((x0, y0, za), (x1, y1, za), (x1, y1, zb)))
+            tris.append(((x0, y0, za), (x1, y1, zb), (x0, y0, zb)))
+    if caps:
+        for i in range(n_around):
+            (x0, y0), (x1, y1) = ring[i], ring[(i + 1) % n_around]
+            tris.append(((0, 0, z0), (x1, y1, z0), (x0, y0, z0)))
+            tris.append(((0, 0, z1), (x0, y0, z1), (x1, y1, z1)))
+    return tris
+
+
+def write_stl(path, tris, name):
+    """An ASCII STL of `tris`, each facet's normal from its winding."""
+    with open(path, "w") as f:
+        f.write("solid %s\n" % name)
+        for a, b, c in tris:
+            u = [b[j] - a[j] for j in range(3)]
+            v = [c[j] - a[j] for j in range(3)]
+            n = (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
+            length = math.sqrt(sum(x * x for x in n)) or 1.0
+            f.write("facet normal %.9g %.9g %.9g\nouter loop\n" % tuple(x / length for x in n))
+            for p in (a, b, c):
+                f.write("vertex %.9g %.9g %.9g\n" % p)
+            f.write("endloop\nendfacet\n")
+        f.write("endsolid %s\n" % name)
+
+
+# --surface cylinder: the exact cylinder the peers mesh, as a closed STL 3 mm
+# longer than the clip planes at each end (192 facets around, 0.5 mm rows),
+# read as a surface: no smoothing (there are no voxel steps to take out), and
+# the sizes of cases/tube (0.5 mm voxels) in mm.
+CYLINDER_STL = "cylinder.stl"
+CYLINDER_INPUT = 'file = "%s"' % CYLINDER_STL
+CYLINDER_SETTINGS = [("smoothing", "sweeps", "0"), ("sizing", "L_min", '"0.25 mm"'), ("sizing", "L_max", '"20 mm"')]
+
+
+SCALEMESH_SURFACES = {"voxel": "scalemesh", "cylinder": "scalemesh_cylinder"}   # --surface: its series' mesher
+
+
+def surface_of(kind):
+    return next(s for s, k in SCALEMESH_SURFACES.items() if k == kind)
+
+
+def scalemesh_case(binary, M, case, surface="voxel"):
+    """A scalemesh run of cases/tube at layer count M, with the test's flow;
+    with surface "cylinder", of the exact cylinder STL in place of the
+    voxelised tube phantom (the same clip planes)."""
     if os.path.exists(case):
         shutil.rmtree(case)
     os.makedirs(case)
@@ -97,6 +152,15 @@ def scalemesh_case(binary, M, case):
     if n != 1:
         raise RuntimeError("no M key in cases/tube/scalemesh.toml")
     toml = toml.replace('surface = ["surface.msh", "surface.vtk"]', "surface = []")
+    if surface == "cylinder":
+        toml, n = re.subn(r'(?m)^phantom\s*=\s*"tube"\s*$', CYLINDER_INPUT, toml)
+        toml, k = re.subn(r"(?m)^voxel_size\s*=.*$\n", "", toml)
+        if n != 1 or k != 1:
+            raise RuntimeError("cases/tube/scalemesh.toml has no phantom = \"tube\" and voxel_size lines")
+        for section, key, value in CYLINDER_SETTINGS:
+            toml = apply_setting(toml, section, key, value)
+        write_stl(os.path.join(case, CYLINDER_STL),
+                  cylinder_triangles(192, -TUBE_HALF - 3, TUBE_HALF + 3, 60, caps=True), "cylinder")
     toml += "\n[flow]\nviscosity = %g\ninlet_speed = %g\n" % (NU, U_IN)
     for section, key, value in SCALEMESH_SETTINGS:
         toml = apply_setting(toml, section, key, value)
@@ -361,8 +425,8 @@ def set_laplacian_scheme(case, scheme):
 
 
 def study_one(kind, param, case, binary, template, grad=None, laplacian=None):
-    if kind == "scalemesh":
-        mesh_seconds = scalemesh_case(binary, param, case)
+    if kind in SCALEMESH_SURFACES.values():
+        mesh_seconds = scalemesh_case(binary, param, case, surface_of(kind))
     elif kind == "mesh3":
         mesh_seconds = mesh3_case(param, case, template, MESH3_BINARY[0])
     else:
@@ -373,12 +437,12 @@ def study_one(kind, param, case, binary, template, grad=None, laplacian=None):
         set_laplacian_scheme(case, laplacian)
     result = {"mesher": kind, "parameter": param, "mesh_seconds": mesh_seconds, "grad_scheme": grad or "as written",
               "laplacian": laplacian or "as written"}
-    if kind == "scalemesh" and SCALEMESH_SETTINGS:
+    if kind in SCALEMESH_SURFACES.values() and SCALEMESH_SETTINGS:
         result["settings"] = ", ".join("%s.%s = %s" % s for s in SCALEMESH_SETTINGS)
     result.update(solve(case))
     result.update(analyse(case))
     log("%-9s %s %-5g cells %7d  WSS error %+7.3f%% (rms %.2f%%)  dp error %+7.3f%%  %s, %d iterations, %.0f s"
-        % (kind, "M" if kind == "scalemesh" else "h", param, result["cells"], 100 * result["wss_error"],
+        % (kind, "M" if kind in SCALEMESH_SURFACES.values() else "h", param, result["cells"], 100 * result["wss_error"],
            100 * result["wss_rms_error"], 100 * result["dp_error"],
            "converged" if result["converged"] else "NOT converged", result["iterations"], result["solver_seconds"]))
     return result
@@ -413,6 +477,7 @@ def error_at(results, key, cells):
     return None
 
 
+SERIES_NAMES = {"scalemesh": "scalemesh", "scalemesh_cylinder": "scalemesh on the cylinder STL"}
 PEERS = (("gmsh", "Gmsh isotropic"), ("mesh3", "CGAL Mesh_3 isotropic"), ("snappy", "snappyHexMesh with layers"))
 MESH3_BINARY = [None]   # validation/mesh3_tube of the build, set by main()
 
@@ -452,7 +517,8 @@ def plot(results, png, workdir):
     if not shutil.which("gnuplot"):
         log("no gnuplot: no plot")
         return False
-    series = [("scalemesh", "scalemesh", 7)] + [(kind, name, 5 + 4 * i) for i, (kind, name) in enumerate(PEERS)]
+    series = [(k, SERIES_NAMES[k], 7 if k == "scalemesh" else 3) for k in SCALEMESH_SURFACES.values()] + \
+        [(kind, name, 5 + 4 * i) for i, (kind, name) in enumerate(PEERS)]
     data = {}
     for kind, _, _ in series:
         path = os.path.join(workdir, "plot-%s.dat" % kind)
@@ -492,13 +558,15 @@ def table(results):
     rows = ["| mesher | M or h (mm) | cells | WSS error | local WSS RMS | dp error | wall cell distance (mm) "
             "| its WSS error, -delta / 2R | iterations |",
             "|---|---|---|---|---|---|---|---|---|"]
-    order = ["scalemesh"] + [kind for kind, _ in PEERS]
-    names = {"scalemesh": "scalemesh", "gmsh": "Gmsh", "mesh3": "CGAL Mesh_3", "snappy": "snappyHexMesh"}
+    order = list(SCALEMESH_SURFACES.values()) + [kind for kind, _ in PEERS]
+    names = {"scalemesh": "scalemesh", "scalemesh_cylinder": "scalemesh, cylinder STL", "gmsh": "Gmsh",
+             "mesh3": "CGAL Mesh_3", "snappy": "snappyHexMesh"}
     for r in sorted(results, key=lambda r: (order.index(r["mesher"]), r["cells"])):
         step = ("%.4f | %+.2f%%" % (r["wall_distance_mm"], 100 * r["wall_step_error"])
                 if "wall_distance_mm" in r else "- | -")
         rows.append("| %s | %s | %d | %+.2f%% | %.2f%% | %+.2f%% | %s | %d%s |" % (
-            names[r["mesher"]], ("M = %g" % r["parameter"]) if r["mesher"] == "scalemesh" else ("h = %g" % r["parameter"]),
+            names[r["mesher"]], ("M = %g" % r["parameter"]) if r["mesher"] in SCALEMESH_SURFACES.values()
+            else ("h = %g" % r["parameter"]),
             r["cells"], 100 * r["wss_error"], 100 * r["wss_rms_error"], 100 * r["dp_error"], step, r["iterations"],
             "" if r["converged"] else " (not converged)"))
     return "\n".join(rows)
@@ -520,17 +588,24 @@ def ratio_text(s, g):
 
 
 def write_doc(results, doc, png, args, elapsed):
-    sm = [r for r in results if r["mesher"] == "scalemesh"]
+    # One series per surface scalemesh meshed (--surface), then the peers.
+    series = [(kind, SERIES_NAMES[kind], [r for r in results if r["mesher"] == kind])
+              for kind in SCALEMESH_SURFACES.values()]
+    series = [x for x in series if x[2]]
+    sm = [r for _, _, rs in series for r in rs]
     peers = [(kind, name, [r for r in results if r["mesher"] == kind]) for kind, name in PEERS]
     peers = [p for p in peers if p[2]]
     lines = []
-    claims = {}
+    claims = {}   # quantity -> [cells_for of each scalemesh series], [cells_for of each peer]
     for key, name in (("wss_error", "mean wall shear stress"), ("dp_error", "pressure drop"),
                       ("wss_rms_error", "local wall shear stress (RMS)")):
-        s = cells_for(sm, key, 0.01)
-        claims[key] = [s] + [cells_for(rs, key, 0.01) for _, _, rs in peers]
+        own = [cells_for(rs, key, 0.01) for _, _, rs in series]
+        claims[key] = (own, [cells_for(rs, key, 0.01) for _, _, rs in peers])
         lines.append("| %s | %s |" % (name, " | ".join(
-            [describe(*s)] + ["%s; scalemesh: %s" % (describe(*g), ratio_text(s, g)) for g in claims[key][1:]])))
+            [describe(*c) for c in own] +
+            ["%s; %s" % (describe(*g), "; ".join("%s: %s" % (sname, ratio_text(c, g))
+                                                  for (_, sname, _), c in zip(series, own)))
+             for g in claims[key][1]])))
     rel_png = os.path.relpath(png, os.path.dirname(doc))
     notes = ""
     if args.notes and os.path.exists(args.notes):
@@ -539,6 +614,16 @@ def write_doc(results, doc, png, args, elapsed):
     mesh3_h = sorted((r["parameter"] for r in results if r["mesher"] == "mesh3"), reverse=True)
     settings = sorted({r.get("settings", "") for r in sm})
     settings = " (case file as `cases/tube`'s but %s)" % " / ".join(settings) if settings != [""] else ""
+    default_doc = os.path.abspath(doc) == os.path.join(REPO, "docs", "validation.md")
+    cylinder = any(kind == "scalemesh_cylinder" for kind, _, _ in series)
+    voxel = any(kind == "scalemesh" for kind, _, _ in series)
+    surface_note = ""
+    if cylinder:
+        surface_note = (" The series \"%s\" meshes, through scalemesh's surface input, the exact cylinder the peers "
+                        "mesh: a closed STL of it (192 facets around, 0.5 mm rows) 3 mm longer than the clip planes "
+                        "at each end, cut by the same clip planes as `cases/tube`, without smoothing, L_min 0.25 mm "
+                        "and L_max 20 mm (the tube's 0.5 and 40 voxels); beside the voxel tube it tells the mesh's "
+                        "own error apart from the voxel surface's bumps." % SERIES_NAMES["scalemesh_cylinder"])
     text = """# CFD validation: the straight tube{title_note}
 
 Generated by `validation/tube_validation.py` (issue 31); do not edit by hand.
@@ -566,8 +651,8 @@ dp = 8 nu U L / R^2 over L = 8 mm. Measured: the area-weighted mean of
 |wallShearStress| over the wall faces with |z| < {wh:g} mm (7 mm, 1.2
 diameters, from either cap), its area-weighted RMS deviation from tau_w
 ("local"), and the difference of the volume-weighted mean pressure in 2 mm
-slabs centred at z = -4 and +4 mm. The scalemesh wall is the remeshed,
-voxel-derived surface, a polygon in cross-section with fewer edges the
+slabs centred at z = -4 and +4 mm. The scalemesh wall is the remeshed
+surface ({wall_of}), a polygon in cross-section with fewer edges the
 smaller M (its area is in `validation/results.csv`); the reference follows
 each mesh's own cross-section, so the errors measure the flow solution on
 the mesh, not how well the wall captures the 3 mm circle. The wall cell
@@ -575,7 +660,7 @@ distance delta is the area-weighted mean, over the measured wall faces, of
 the distance from the owner cell's centre to the face's plane: OpenFOAM's
 wall gradient is the one-sided difference over delta, which on Poiseuille's
 parabola alone puts the wall shear stress -delta / 2R off; the rest of the
-error is the solution's in the cells.
+error is the solution's in the cells.{surface_note}
 
 ## Results
 
@@ -583,8 +668,8 @@ error is the solution's in the cells.
 
 Cells needing 1% error (log-log interpolation between the bracketing meshes):
 
-| quantity | scalemesh | {peer_heads} |
-|---|---|{peer_rule}
+| quantity | {series_heads} | {peer_heads} |
+|---|{series_rule}{peer_rule}
 {claims}
 
 ![error against cell count]({png})
@@ -603,11 +688,9 @@ scalemesh mesh's cell count; "-" outside the peer's range):
 ## Rerun
 
 ```sh
-bash setup.sh validate
-# or, with the binary already built:
-/usr/bin/python3 validation/tube_validation.py --scalemesh build/src/cli/scalemesh \\
+{setup_line}/usr/bin/python3 validation/tube_validation.py --scalemesh build/src/cli/scalemesh \\
     --workdir /tmp/scalemesh-validation --M {Ms_cli} --h {hs_cli} \\
-    --mesh3 {mesh3_cli} --snappy {snappy_cli}{grad_cli}{set_cli}
+    --mesh3 {mesh3_cli} --snappy {snappy_cli}{surface_cli}{grad_cli}{set_cli}
 ```
 
 Meshing and solving took {minutes:.1f} minutes in all (summed over the meshes,
@@ -615,28 +698,31 @@ each solver on one core under `nice -n 10`; post-processing adds about as much).
 `{out}/tube.png` and this page. The CI check (`ctest -R validation`)
 runs `--quick`: M = {qm}, the schemes scalemesh writes, asserting the mean wall shear stress within 5%.
 """
-    parts = []
-    for (kind, name, rs), g in zip(peers, claims["wss_error"][1:]):
-        parts.append("%s %s (%s)" % (name, describe(*g), ratio_text(claims["wss_error"][0], g)))
-    key = ("For 1%% error in the mean wall shear stress scalemesh needs %s cells; %s. The issue's goal is 3 times "
-           "fewer cells than each isotropic peer." % (describe(*claims["wss_error"][0]), "; ".join(parts)))
-    for name, rs in [("scalemesh", sm)] + [(name, rs) for _, name, rs in peers]:
+    key = ""
+    own, theirs = claims["wss_error"]
+    for (kind, sname, rs), c in zip(series, own):
+        parts = ["%s %s (%s)" % (name, describe(*g), ratio_text(c, g)) for (_, name, _), g in zip(peers, theirs)]
+        key += ("For 1%% error in the mean wall shear stress %s needs %s cells%s. "
+                % (sname, describe(*c), ("; " + "; ".join(parts)) if parts else ""))
+    key += "The issue's goal is 3 times fewer cells than each isotropic peer."
+    for name, rs in [(sname, rs) for _, sname, rs in series] + [(name, rs) for _, name, rs in peers]:
         last = [abs(r["wss_error"]) for r in sorted(rs, key=lambda r: r["cells"])][-3:]
         if len(last) == 3 and min(last) > 0.01 and last[-1] >= 0.9 * last[0]:
             key += (" The mean wall shear stress error of %s falls by less than a tenth over its three finest meshes "
                     "(%.2f%%, %.2f%%, %.2f%%): with these schemes it levels off above 1%%, and more cells alone do not "
                     "bring it within 1%%." % ((name,) + tuple(100 * e for e in last)))
-    finest = max(sm, key=lambda r: r["cells"]) if sm else None
-    if finest:
-        key += (" The pressure drop at the finest scalemesh mesh (M = %g, %d cells): %+.2f%% (goal: within 1%%)."
-                % (finest["parameter"], finest["cells"], 100 * finest["dp_error"]))
-    for kind, name, rs in peers:
-        ratios = [(r["cells"], error_at(rs, "wss_error", r["cells"]) / max(abs(r["wss_error"]), 1e-12))
-                  for r in sm if error_at(rs, "wss_error", r["cells"]) is not None]
-        if ratios:
-            key += (" At matched cell counts (%d to %d cells) the mean wall shear stress error of %s is %.2g to "
-                    "%.2g times that of scalemesh." % (min(c for c, _ in ratios), max(c for c, _ in ratios), name,
-                                                       min(q for _, q in ratios), max(q for _, q in ratios)))
+    for _, sname, rs in series:
+        finest = max(rs, key=lambda r: r["cells"])
+        key += (" The pressure drop at the finest mesh of %s (M = %g, %d cells): %+.2f%% (goal: within 1%%)."
+                % (sname, finest["parameter"], finest["cells"], 100 * finest["dp_error"]))
+    for _, sname, srs in series:
+        for kind, name, rs in peers:
+            ratios = [(r["cells"], error_at(rs, "wss_error", r["cells"]) / max(abs(r["wss_error"]), 1e-12))
+                      for r in srs if error_at(rs, "wss_error", r["cells"]) is not None]
+            if ratios:
+                key += (" At matched cell counts (%d to %d cells) the mean wall shear stress error of %s is %.2g to "
+                        "%.2g times that of %s." % (min(c for c, _ in ratios), max(c for c, _ in ratios), name,
+                                                    min(q for _, q in ratios), max(q for _, q in ratios), sname))
     out = os.path.relpath(args.out, REPO)
     text = text.format(Ms=", ".join("%g" % m for m in args.M), hs=", ".join("%g" % h for h in args.h),
                        snappy_hs=", ".join("%g" % h for h in snappy_h) or "(none)",
@@ -647,7 +733,16 @@ runs `--quick`: M = {qm}, the schemes scalemesh writes, asserting the mean wall 
                        mesh3_hs=", ".join("%g" % h for h in mesh3_h) or "(none)",
                        mesh3_cli=" ".join("%g" % h for h in mesh3_h),
                        minutes=sum(r["mesh_seconds"] + r["solver_seconds"] for r in results) / 60, qm=QUICK_M, png=rel_png,
-                       matched=matched(sm, peers), notes=notes, out=out, settings=settings,
+                       matched="\n\n".join(("%s:\n\n" % sname if len(series) > 1 else "") + matched(rs, peers)
+                                             for _, sname, rs in series),
+                       notes=notes, out=out, settings=settings, surface_note=surface_note,
+                       setup_line=("bash setup.sh validate\n# or, with the binary already built:\n"
+                                   if default_doc else ""),
+                       wall_of=" and ".join(w for w, on in (("the voxel-derived tube", voxel),
+                                                            ("the cylinder STL", cylinder)) if on),
+                       series_heads=" | ".join(sname for _, sname, _ in series), series_rule="---|" * len(series),
+                       surface_cli=(" --surface " + " ".join(surface_of(kind) for kind, _, _ in series)
+                                    if [kind for kind, _, _ in series] != ["scalemesh"] else ""),
                        set_cli=(" \\\n    --set " + " ".join("'%s.%s=%s'" % s for s in SCALEMESH_SETTINGS)
                                 if SCALEMESH_SETTINGS else ""),
                        title_note=(" (%s)" % ", ".join(s for s in (args.grad, args.laplacian) if s)
@@ -662,8 +757,10 @@ runs `--quick`: M = {qm}, the schemes scalemesh writes, asserting the mean wall 
                                       if args.laplacian else "")) + ".",
                        grad_cli=((" --grad '%s'" % args.grad) if args.grad else "") +
                                 ((" --laplacian '%s'" % args.laplacian) if args.laplacian else "") +
-                                ((" --out %s --doc %s --notes ''" % (out, os.path.relpath(doc, REPO)))
-                                 if args.grad or args.laplacian else ""))
+                                ((" \\\n    --out %s --doc %s --notes %s" % (
+                                    out, os.path.relpath(doc, REPO),
+                                    os.path.relpath(args.notes, REPO) if args.notes else "''"))
+                                 if args.grad or args.laplacian or not default_doc else ""))
     write_page(doc, text)
     return key
 
@@ -683,7 +780,8 @@ def main():
     ap.add_argument("--mesh3-tube", help="the mesh3_tube binary (default: validation/mesh3_tube in --scalemesh's build)")
     ap.add_argument("--snappy", type=float, nargs="*", default=DEFAULT_SNAPPY,
                     help="snappyHexMesh background cell sizes (mm); none to leave it out")
-    ap.add_argument("--quick", action="store_true", help=f"CI check: M = {QUICK_M} only, assert WSS within 5%%")
+    ap.add_argument("--quick", action="store_true", help=f"CI check: M = {QUICK_M} only (on each --surface), "
+                    "assert WSS within 5%%")
     ap.add_argument("--quick-snappy", type=float, nargs="+", metavar="H",
                     help="with --quick: also a snappyHexMesh peer at these cell sizes (mm), the same assertion")
     ap.add_argument("--quick-mesh3", type=float, nargs="+", metavar="H",
@@ -694,6 +792,9 @@ def main():
                     "an earlier one's of the same mesher and size)")
     ap.add_argument("--write-results", action="store_true",
                     help="with --from-json: also write the merged results.json, results.csv and tube.png to --out")
+    ap.add_argument("--surface", nargs="+", choices=list(SCALEMESH_SURFACES), default=["voxel"],
+                    help="what scalemesh meshes: the voxelised tube phantom of cases/tube (voxel), and/or the exact "
+                    "cylinder STL the peers mesh, with the same clip planes (cylinder); one series each")
     ap.add_argument("--tolerance", type=float, default=0.05)
     ap.add_argument("--set", nargs="+", default=[], metavar="SECTION.KEY=VALUE",
                     help="a case-file setting for every scalemesh mesh, in TOML (e.g. volume.growth=1.3, "
@@ -725,8 +826,13 @@ def main():
     start = time.time()
 
     if args.quick:
-        case = os.path.join(args.workdir, "quick-M%d-%d" % (QUICK_M, os.getpid()))
-        checks = [(case, study_one("scalemesh", QUICK_M, case, binary, None, args.grad, args.laplacian))]
+        checks = []
+        for surface in args.surface:
+            case = os.path.join(args.workdir, "quick-%sM%d-%d" % ("" if surface == "voxel" else surface + "-",
+                                                                   QUICK_M, os.getpid()))
+            checks.append((case, study_one(SCALEMESH_SURFACES[surface], QUICK_M, case, binary, None, args.grad,
+                                           args.laplacian)))
+        case = checks[0][0]   # the peers' case template
         for kind, sizes in (("mesh3", args.quick_mesh3), ("snappy", args.quick_snappy)):
             for h in sizes or []:
                 peer = os.path.join(args.workdir, "quick-%s-h%g-%d" % (kind, h, os.getpid()))
@@ -739,7 +845,7 @@ def main():
             all_ok = all_ok and ok
             log("quick check, %s %s %g: mean WSS %.5g m^2/s^2, Hagen-Poiseuille %.5g, error %+.2f%% (%s), "
                 "pressure drop error %+.2f%%, %s, checkMesh %s: %s"
-                % (r["mesher"], "M" if r["mesher"] == "scalemesh" else "h", r["parameter"], r["tau_w"],
+                % (r["mesher"], "M" if r["mesher"] in SCALEMESH_SURFACES.values() else "h", r["parameter"], r["tau_w"],
                    r["tau_w_ref"], 100 * r["wss_error"],
                    "not asserted" if r["mesher"] == "mesh3" else "tolerance %g%%" % (100 * args.tolerance),
                    100 * r["dp_error"],
@@ -759,7 +865,8 @@ def main():
         results = list(merged.values())
         if len({(r.get("grad_scheme", "as written"), r.get("laplacian", "as written")) for r in results}) != 1:
             sys.exit("the results of %s were run with different schemes" % " ".join(args.from_json))
-        args.M = sorted(r["parameter"] for r in results if r["mesher"] == "scalemesh")
+        args.M = sorted({r["parameter"] for r in results if r["mesher"] in SCALEMESH_SURFACES.values()})
+        args.surface = [s for s, k in SCALEMESH_SURFACES.items() if any(r["mesher"] == k for r in results)]
         args.h = sorted((r["parameter"] for r in results if r["mesher"] == "gmsh"), reverse=True)
         args.snappy = [r["parameter"] for r in results if r["mesher"] == "snappy"]
         args.mesh3 = [r["parameter"] for r in results if r["mesher"] == "mesh3"]
@@ -774,10 +881,12 @@ def main():
         return 0
     results = []
     template = None
-    for M in args.M:
-        case = os.path.join(args.workdir, "scalemesh-M%g" % M)
-        results.append(study_one("scalemesh", M, case, binary, None, args.grad, args.laplacian))
-        template = template or case
+    for surface in args.surface:
+        for M in args.M:
+            case = os.path.join(args.workdir, "scalemesh-M%g" % M if surface == "voxel"
+                                else "scalemesh-%s-M%g" % (surface, M))
+            results.append(study_one(SCALEMESH_SURFACES[surface], M, case, binary, None, args.grad, args.laplacian))
+            template = template or case
     for h in args.h:
         results.append(study_one("gmsh", h, os.path.join(args.workdir, "gmsh-h%g" % h), binary, template, args.grad,
                                  args.laplacian))
