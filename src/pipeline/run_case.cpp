@@ -471,6 +471,7 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
                               {"internal_faces", result.polymesh->internal_faces},
                               {"layer_prisms", result.layer_prisms},
                               {"layer_prisms_refused", result.layer_prisms_refused},
+                              {"absorbed_tets", result.absorbed_tets},
                               {"intact_prism_share", intact_prism_share(result)},
                               {"max_non_orthogonality_deg", checks.max_non_orthogonality_deg},
                               {"tet_cells_min_dihedral_deg",
@@ -664,10 +665,19 @@ CaseResult run_and_write(const std::filesystem::path& dir, const CaseConfig& con
             // faces further off) than the prism they fill; it is split where
             // checkMesh would fail it (`check`), or for a face at 89 degrees.
             const double prism_bound = config.layers == LayerMode::prisms ? 89.0 : 68.0;
+            // With layers = "prisms", a tet cell below the aspect-ratio or
+            // dihedral floor or on a face beyond 69.5 degrees (a sliver the
+            // core's tets leave in a crease of the layers' top, pinned by the
+            // locked prisms) is joined to one or two neighbouring cells where
+            // their union is a sound polyhedron (OpenFOAM's checks decide).
+            const PoorTetBounds poor{.min_aspect_ratio = config.min_aspect_ratio,
+                                     .min_dihedral_deg = config.min_dihedral_deg,
+                                     .max_non_orthogonality_deg = 69.5};
             LayerPrismCells cells;
             if (config.layer_prisms) {
                 cells = checked_layer_prism_cells(mesh, v.adjacency, v.point_generator, v.point_layer, v.point_filler,
-                                                  prism_bound, check);
+                                                  prism_bound, check,
+                                                  config.layers == LayerMode::prisms ? &poor : nullptr);
             } else {
                 cells.cells = static_cast<int32_t>(mesh.tets.size());
                 cells.cell_of_tet.resize(mesh.tets.size());
@@ -676,6 +686,7 @@ CaseResult run_and_write(const std::filesystem::path& dir, const CaseConfig& con
             }
             result.layer_prisms = cells.prisms;
             result.layer_prisms_refused = cells.refused;
+            result.absorbed_tets = cells.absorbed;
             result.openfoam_checks = checks;
             for (const std::string& w : openfoam_check_warnings(checks)) result.warnings.push_back(w);
             if (prism_cells) {

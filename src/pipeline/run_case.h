@@ -32,6 +32,8 @@ struct CaseResult {
     int64_t layer_prisms = 0;                   // its cells of three tets filling a layer prism
     int64_t layer_prisms_refused = 0;           // prisms filled by three tets left as tets (not star-shaped, or a
                                                 // face beyond the bound by the tets' or by OpenFOAM's measure)
+    int64_t absorbed_tets = 0;                  // layers = "prisms": poor tets joined to a neighbouring cell
+                                                // (absorb_poor_tets) rather than written as cells of their own
     std::optional<CellFloors> tet_cells;        // layers = "prisms" with prism cells: the tets written as cells
                                                 // of their own, which the cell floors judge
     OpenFoamCellChecks openfoam_checks;         // OpenFOAM's own checks on the written cells (its worst face

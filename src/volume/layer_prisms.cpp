@@ -1,6 +1,7 @@
 #include "volume/layer_prisms.h"
 
 #include "core/vec3.h"
+#include "volume/quality.h"
 
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
@@ -214,6 +215,151 @@ LayerPrismCells layer_prism_cells(const TetMesh& mesh, const TetFaceAdjacency& a
     return out;
 }
 
+int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency, LayerPrismCells& cells,
+                         const PoorTetBounds& bounds, const std::vector<std::vector<TetUnion>>& refused,
+                         std::vector<TetUnion>* chosen)
+{
+    const size_t tets = mesh.tets.size();
+    if (cells.cell_of_tet.size() != tets || (!refused.empty() && refused.size() != tets) ||
+        adjacency.across.size() != 4 * tets)
+        throw std::invalid_argument("absorb_poor_tets: the cells, `refused` or the adjacency are not of this mesh");
+    if (chosen) chosen->assign(tets, TetUnion{-1, -1});
+    std::vector<int32_t>& cell = cells.cell_of_tet;
+    // Each cell's tets, and the volume-weighted sum of their centroids.
+    std::vector<std::vector<int32_t>> members(static_cast<size_t>(cells.cells));
+    std::vector<Vec3> moment(members.size());
+    std::vector<double> volume(members.size(), 0.0);
+    std::vector<Vec3> centroid(tets);
+    std::vector<double> tet_volume(tets);
+    for (size_t t = 0; t < tets; ++t) {
+        const Tet& x = mesh.tets[t];
+        const Vec3 &a = mesh.points[x[0]], &b = mesh.points[x[1]], &c = mesh.points[x[2]], &d = mesh.points[x[3]];
+        centroid[t] = (a + b + c + d) / 4;
+        tet_volume[t] = tet_volume6(a, b, c, d) / 6;
+        members[cell[t]].push_back(static_cast<int32_t>(t));
+        moment[cell[t]] += tet_volume[t] * centroid[t];
+        volume[cell[t]] += tet_volume[t];
+    }
+    const auto centre = [&](int32_t c) { return moment[c] / volume[c]; };
+    const double min_cosine = std::cos(bounds.max_non_orthogonality_deg * 3.14159265358979323846 / 180);
+    const double min_sine = std::sin(kStarAngleDeg * 3.14159265358979323846 / 180);
+    // The cosine of face k of tet t against the join from `from` to the
+    // centre of the cell across.
+    const auto face_cosine = [&](int32_t t, int k, const Vec3& from) {
+        const Triangle f = tet_face(mesh.tets[t], k);
+        const Vec3 n = cross(mesh.points[f[1]] - mesh.points[f[0]], mesh.points[f[2]] - mesh.points[f[0]]);
+        const Vec3 d = centre(cell[adjacency.across[4 * t + k]]) - from;
+        return dot(n, d) / (norm(n) * norm(d));
+    };
+
+    // The poor tet cells, worst dihedral angle first.
+    std::vector<std::pair<double, int32_t>> poor;
+    for (size_t t = 0; t < tets; ++t) {
+        if (members[cell[t]].size() != 1) continue;
+        const Tet& x = mesh.tets[t];
+        const double dihedral =
+            tet_min_dihedral_deg(mesh.points[x[0]], mesh.points[x[1]], mesh.points[x[2]], mesh.points[x[3]]);
+        bool bad = dihedral < bounds.min_dihedral_deg ||
+                   tet_aspect_ratio(mesh.points[x[0]], mesh.points[x[1]], mesh.points[x[2]], mesh.points[x[3]]) <
+                       bounds.min_aspect_ratio;
+        for (int k = 0; k < 4 && !bad; ++k)
+            if (adjacency.across[4 * t + k] >= 0 && !(face_cosine(int32_t(t), k, centroid[t]) > min_cosine)) bad = true;
+        if (bad) poor.emplace_back(dihedral, static_cast<int32_t>(t));
+    }
+    std::sort(poor.begin(), poor.end());
+
+    std::vector<char> was_prism(members.size()), grew(members.size(), 0);
+    for (size_t c = 0; c < members.size(); ++c) was_prism[c] = members[c].size() == 3;
+    int64_t joined = 0;
+    for (const auto& [dihedral, t] : poor) {
+        if (members[cell[t]].size() != 1) continue; // another tet joined it meanwhile
+        // The cells across its faces, and the union of the tet with one of
+        // them or with two: a flat tet's two faces on one side may lie on
+        // two cells, and only their union sees its other faces from inside.
+        std::vector<int32_t> across_cells;
+        for (int k = 0; k < 4; ++k)
+            if (const int32_t a = adjacency.across[4 * t + k]; a >= 0 && cell[a] != cell[t] &&
+                                                               std::find(across_cells.begin(), across_cells.end(),
+                                                                         cell[a]) == across_cells.end())
+                across_cells.push_back(cell[a]);
+        const auto lowest = [&](int32_t c) {
+            return c < 0 ? -1 : *std::min_element(members[c].begin(), members[c].end());
+        };
+        const auto name = [&](int32_t c0, int32_t c1) {
+            const TetUnion u{lowest(c0), lowest(c1)};
+            return u[1] >= 0 && u[1] < u[0] ? TetUnion{u[1], u[0]} : u;
+        };
+        std::array<int32_t, 2> best{-1, -1};
+        double best_cosine = min_cosine;
+        const auto consider = [&](int32_t c0, int32_t c1) {
+            const auto inside = [&](int32_t c) { return c == c0 || c == c1; };
+            const size_t size = members[c0].size() + (c1 >= 0 ? members[c1].size() : 0) + 1;
+            if (static_cast<int32_t>(size) > bounds.max_cell_tets) return;
+            if (!refused.empty() && std::find(refused[t].begin(), refused[t].end(), name(c0, c1)) != refused[t].end())
+                return;
+            Vec3 m = moment[c0] + tet_volume[t] * centroid[t];
+            double v = volume[c0] + tet_volume[t];
+            if (c1 >= 0) m += moment[c1], v += volume[c1];
+            const Vec3 joint = m / v;
+            // The union's outer faces: star-shaped from `joint`, and their
+            // worst cosine to the cells across.
+            double worst = 1;
+            bool star = true;
+            const auto outer = [&](int32_t u) {
+                for (int j = 0; j < 4 && star; ++j) {
+                    const int32_t a = adjacency.across[4 * u + j];
+                    if (a >= 0 && (inside(cell[a]) || a == t)) continue;
+                    const Triangle f = tet_face(mesh.tets[u], j);
+                    if (!faces_centre(mesh.points[f[0]], mesh.points[f[1]], mesh.points[f[2]], joint, min_sine))
+                        star = false;
+                    else if (a >= 0)
+                        worst = std::min(worst, face_cosine(u, j, joint));
+                }
+            };
+            outer(t);
+            for (const int32_t u : members[c0]) outer(u);
+            if (c1 >= 0)
+                for (const int32_t u : members[c1]) outer(u);
+            if (star && worst > best_cosine) best = {c0, c1}, best_cosine = worst;
+        };
+        for (size_t i = 0; i < across_cells.size(); ++i) {
+            consider(across_cells[i], -1);
+            for (size_t j = i + 1; j < across_cells.size(); ++j) consider(across_cells[i], across_cells[j]);
+        }
+        if (best[0] < 0) continue;
+        if (chosen) (*chosen)[t] = name(best[0], best[1]);
+        const auto join = [&](int32_t u, int32_t into) {
+            const int32_t from = cell[u];
+            moment[from] -= tet_volume[u] * centroid[u];
+            volume[from] -= tet_volume[u];
+            members[from].erase(std::find(members[from].begin(), members[from].end(), u));
+            cell[u] = into;
+            members[into].push_back(u);
+            moment[into] += tet_volume[u] * centroid[u];
+            volume[into] += tet_volume[u];
+        };
+        join(t, best[0]);
+        if (best[1] >= 0) {
+            const std::vector<int32_t> second = members[best[1]];
+            for (const int32_t u : second) join(u, best[0]);
+            grew[best[1]] = 1;
+        }
+        grew[best[0]] = 1;
+        ++joined;
+    }
+    if (joined == 0) return 0;
+    for (size_t c = 0; c < members.size(); ++c) cells.prisms -= was_prism[c] && grew[c];
+    // Cells numbered in the order of their first tet again.
+    std::vector<int32_t> number(members.size(), -1);
+    cells.cells = 0;
+    for (size_t t = 0; t < tets; ++t) {
+        if (number[cell[t]] < 0) number[cell[t]] = cells.cells++;
+        cell[t] = number[cell[t]];
+    }
+    cells.absorbed += joined;
+    return joined;
+}
+
 int64_t layer_prism_groups(const TetMesh& mesh, const std::vector<int32_t>& point_generator,
                            const std::vector<int32_t>& point_layer, const std::vector<char>& point_filler)
 {
@@ -227,21 +373,34 @@ LayerPrismCells checked_layer_prism_cells(const TetMesh& mesh, const TetFaceAdja
                                           const std::vector<int32_t>& point_generator,
                                           const std::vector<int32_t>& point_layer,
                                           const std::vector<char>& point_filler, double max_non_orthogonality_deg,
-                                          const FailingCells& failing_cells)
+                                          const FailingCells& failing_cells, const PoorTetBounds* absorb)
 {
-    std::vector<char> apart(mesh.tets.size(), 0);
+    const size_t tets = mesh.tets.size();
+    std::vector<char> apart(tets, 0);
+    std::vector<std::vector<TetUnion>> refused(absorb ? tets : 0);
+    std::vector<TetUnion> chosen;
     for (;;) {
         LayerPrismCells cells = layer_prism_cells(mesh, adjacency, point_generator, point_layer, point_filler,
                                                   max_non_orthogonality_deg, &apart);
+        if (absorb) absorb_poor_tets(mesh, adjacency, cells, *absorb, refused, &chosen);
         const std::vector<int32_t> failing = failing_cells(cells);
-        std::vector<char> split(static_cast<size_t>(cells.cells), 0);
+        std::vector<char> undo(static_cast<size_t>(cells.cells), 0), gave_back(static_cast<size_t>(cells.cells), 0);
         for (int32_t c : failing)
-            if (c >= 0 && c < cells.cells) split[c] = 1;
-        // Each round marks tets not marked before (a round that marks none
-        // ends it), so the rounds end.
+            if (c >= 0 && c < cells.cells) undo[c] = 1;
+        // Each round refuses a union not refused before or marks tets not
+        // marked before (a round that does neither ends it), so the rounds
+        // end. A failing cell that absorbed tets gives them back first; a
+        // prism is split only when it fails alone.
         bool more = false;
-        for (size_t t = 0; t < mesh.tets.size(); ++t)
-            if (split[cells.cell_of_tet[t]] && !apart[t]) apart[t] = 1, more = true;
+        for (size_t t = 0; t < tets && absorb; ++t)
+            if (undo[cells.cell_of_tet[t]] && chosen[t][0] >= 0) {
+                refused[t].push_back(chosen[t]);
+                gave_back[cells.cell_of_tet[t]] = 1, more = true;
+            }
+        for (size_t t = 0; t < tets; ++t) {
+            const int32_t c = cells.cell_of_tet[t];
+            if (undo[c] && !gave_back[c] && !apart[t]) apart[t] = 1, more = true;
+        }
         if (!more) return cells;
     }
 }

@@ -4,6 +4,7 @@
 
 #include "core/tet_mesh.h"
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <vector>
@@ -16,6 +17,8 @@ struct LayerPrismCells {
     int64_t prisms = 0;  // cells of three tets
     int64_t refused = 0; // prisms filled by three tets left as tets: not star-shaped from their centroid,
                          // or a face beyond the non-orthogonality bound
+    int64_t absorbed = 0; // poor tets joined to a neighbouring cell (absorb_poor_tets); `prisms` counts
+                          // the prism cells that took none
 };
 
 // A layer prism is the wedge between the points of three boundary nodes a,
@@ -50,6 +53,38 @@ LayerPrismCells layer_prism_cells(const TetMesh& mesh, const TetFaceAdjacency& a
                                   const std::vector<char>& point_filler, double max_non_orthogonality_deg = 68,
                                   const std::vector<char>* apart = nullptr);
 
+// Tets that would be cells of their own although they are poor finite
+// volumes: an aspect ratio below `min_aspect_ratio` or a smallest dihedral
+// angle below `min_dihedral_deg` (slivers,
+// such as those the core's tets leave in a shallow crease of the layers'
+// top, where no flip can reach), or a face to another cell beyond
+// `max_non_orthogonality_deg` from the join of the two cells' centroids.
+struct PoorTetBounds {
+    double min_aspect_ratio = 0.1; // tet_aspect_ratio (quality.h)
+    double min_dihedral_deg = 10;
+    double max_non_orthogonality_deg = 68;
+    int32_t max_cell_tets = 6; // no cell grows beyond this many tets
+};
+
+// Joins each poor tet cell (worst dihedral angle first) to the neighbouring
+// cell across one of its faces, a tet or a prism, or to two of them (a flat
+// tet's two faces on one side may lie on two cells, and only their union
+// sees its other faces from inside), so that the solver sees one
+// polyhedral cell where it would see a sliver: the union that is
+// star-shaped from its centroid (as layer_prism_cells asks of a prism) and
+// has no face beyond the bound, the one of the least non-orthogonality
+// among them. A tet with no such union stays a cell of its own. Cells are
+// renumbered in the order of their first tet. Returns the tets joined.
+//
+// A union is named by the lowest tet of each cell joined, {lowest of the
+// first, lowest of the second or -1}. `refused` (one list per tet, or
+// empty) names unions not to make again; `chosen` (if given) receives the
+// union each tet joined, {-1, -1} for the others.
+using TetUnion = std::array<int32_t, 2>;
+int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency, LayerPrismCells& cells,
+                         const PoorTetBounds& bounds, const std::vector<std::vector<TetUnion>>& refused = {},
+                         std::vector<TetUnion>* chosen = nullptr);
+
 // How far inside a cell its centre must be seen from each of its faces
 // (degrees) for the cell to be star-shaped enough for OpenFOAM's face
 // pyramids, and the test itself: whether triangle (p, q, r), counter-
@@ -68,13 +103,16 @@ int64_t layer_prism_groups(const TetMesh& mesh, const std::vector<int32_t>& poin
 // exporters/polymesh_writer.h): the cells it fails, any order.
 using FailingCells = std::function<std::vector<int32_t>(const LayerPrismCells&)>;
 
-// layer_prism_cells, then the prisms among the cells `failing_cells` names
-// split back into tets, and again, until it names no prism. The cells
+// layer_prism_cells (then absorb_poor_tets with `absorb`, if given), then
+// the cells `failing_cells` names undone: a cell that absorbed a tet gives
+// it back (that union is refused from then on; the tet may join another), a
+// prism is split back into tets; and again, until it names no cell of
+// several tets. The cells
 // returned are the last ones checked.
 LayerPrismCells checked_layer_prism_cells(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
                                           const std::vector<int32_t>& point_generator,
                                           const std::vector<int32_t>& point_layer,
                                           const std::vector<char>& point_filler, double max_non_orthogonality_deg,
-                                          const FailingCells& failing_cells);
+                                          const FailingCells& failing_cells, const PoorTetBounds* absorb = nullptr);
 
 } // namespace scalemesh

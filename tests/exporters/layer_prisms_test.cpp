@@ -6,6 +6,7 @@
 #include "exporters/polymesh_writer.h"
 #include "openfoam_support.h"
 #include "volume/layer_prisms.h"
+#include "volume/quality.h"
 
 #include "support/temp_dir.h"
 
@@ -29,6 +30,8 @@ struct TwoPrisms {
     std::vector<char> filler;
 };
 
+void set_boundary(TetMesh& mesh);
+
 // `points` in place of the square's, if given: the tets are oriented on them.
 TwoPrisms two_prisms(const std::vector<Vec3>& points = {})
 {
@@ -48,8 +51,15 @@ TwoPrisms two_prisms(const std::vector<Vec3>& points = {})
             s.mesh.tets.push_back(t);
         }
     }
+    set_boundary(s.mesh);
+    return s;
+}
+
+// `mesh.boundary_faces`: every tet face no other tet shares, outward.
+void set_boundary(TetMesh& mesh)
+{
     std::map<std::array<int32_t, 3>, std::pair<int, Triangle>> faces;
-    for (const Tet& t : s.mesh.tets)
+    for (const Tet& t : mesh.tets)
         for (int k = 0; k < 4; ++k) {
             const Triangle f = tet_face(t, k);
             std::array<int32_t, 3> key = f;
@@ -58,9 +68,9 @@ TwoPrisms two_prisms(const std::vector<Vec3>& points = {})
             ++count;
             face = f;
         }
+    mesh.boundary_faces.clear();
     for (const auto& [key, entry] : faces)
-        if (entry.first == 1) s.mesh.boundary_faces.push_back(entry.second);
-    return s;
+        if (entry.first == 1) mesh.boundary_faces.push_back(entry.second);
 }
 
 // Every tet a cell of its own.
@@ -281,6 +291,91 @@ TEST(LayerPrisms, CheckedCellsSplitOnlyThePrismsNamed)
     EXPECT_EQ(one.prisms, 1);
     EXPECT_EQ(one.cells, 4);
     EXPECT_EQ(one.cell_of_tet, (std::vector<int32_t>{0, 0, 0, 1, 2, 3}));
+}
+
+// The two prisms and a sliver on the first one's top (4, 5, 6): a core
+// point (a filler) 0.002 above that triangle's centre, tet 6.
+TwoPrisms prisms_and_sliver()
+{
+    TwoPrisms s = two_prisms();
+    const auto& p = s.mesh.points;
+    s.mesh.points.push_back((p[4] + p[5] + p[6]) / 3 + Vec3{0, 0, 0.002});
+    s.generator.push_back(0), s.layer.push_back(2), s.filler.push_back(1);
+    Tet sliver{4, 5, 6, 8};
+    if (tet_volume6(p[4], p[5], p[6], p[8]) < 0) std::swap(sliver[0], sliver[1]);
+    s.mesh.tets.push_back(sliver);
+    set_boundary(s.mesh);
+    return s;
+}
+
+TEST(LayerPrisms, ASliverOnAPrismJoinsItAsOnePolyhedron)
+{
+    const TwoPrisms s = prisms_and_sliver();
+    const auto& p = s.mesh.points;
+    ASSERT_LT(tet_min_dihedral_deg(p[4], p[5], p[6], p[8]), 10.0);
+    const TetFaceAdjacency adjacency = tet_face_adjacency(s.mesh);
+    const LayerPrismCells found = layer_prism_cells(s.mesh, adjacency, s.generator, s.layer, s.filler);
+    ASSERT_EQ(found.prisms, 2);
+    ASSERT_EQ(found.cells, 3);
+
+    LayerPrismCells cells = found;
+    std::vector<TetUnion> chosen;
+    EXPECT_EQ(absorb_poor_tets(s.mesh, adjacency, cells, PoorTetBounds{}, {}, &chosen), 1);
+    EXPECT_EQ(cells.cells, 2);
+    EXPECT_EQ(cells.absorbed, 1);
+    EXPECT_EQ(cells.prisms, 1); // the prism that took the sliver is a polyhedron now
+    EXPECT_EQ(cells.cell_of_tet, (std::vector<int32_t>{0, 0, 0, 1, 1, 1, 0}));
+    EXPECT_EQ(chosen[6], (TetUnion{0, -1}));
+    for (size_t t = 0; t < 6; ++t) EXPECT_EQ(chosen[t], (TetUnion{-1, -1}));
+
+    const TempDir dir;
+    const PolyMeshCounts counts =
+        write_polymesh(s.mesh, dir.path, {.cell_of_tet = &cells.cell_of_tet, .cells = cells.cells});
+    EXPECT_EQ(counts.cells, 2);
+    if (openfoam_available()) {
+        const CheckMeshFigures check = check_mesh(dir.path);
+        EXPECT_TRUE(check.ok) << check.log;
+        EXPECT_EQ(check.cells, 2);
+    }
+
+    // A union refused before is not made again, and none grows beyond
+    // max_cell_tets: the sliver stays a cell of its own.
+    LayerPrismCells again = found;
+    std::vector<std::vector<TetUnion>> refused(s.mesh.tets.size());
+    refused[6].push_back({0, -1});
+    EXPECT_EQ(absorb_poor_tets(s.mesh, adjacency, again, PoorTetBounds{}, refused), 0);
+    EXPECT_EQ(again.cells, 3);
+    EXPECT_EQ(again.prisms, 2);
+    LayerPrismCells small = found;
+    EXPECT_EQ(absorb_poor_tets(s.mesh, adjacency, small, PoorTetBounds{.max_cell_tets = 3}), 0);
+    EXPECT_EQ(small.cells, 3);
+
+    // A sound tet is no candidate: with floors of 0 and 90 degrees nothing joins.
+    LayerPrismCells sound = found;
+    EXPECT_EQ(absorb_poor_tets(s.mesh, adjacency, sound,
+                               PoorTetBounds{.min_aspect_ratio = 0, .min_dihedral_deg = 0,
+                                             .max_non_orthogonality_deg = 90}),
+              0);
+}
+
+TEST(LayerPrisms, CheckedCellsGiveAnAbsorbedTetBackWhereTheUnionFails)
+{
+    const TwoPrisms s = prisms_and_sliver();
+    const TetFaceAdjacency adjacency = tet_face_adjacency(s.mesh);
+    const PoorTetBounds poor;
+    int rounds = 0;
+    const LayerPrismCells cells = checked_layer_prism_cells(
+        s.mesh, adjacency, s.generator, s.layer, s.filler, 68.0,
+        [&](const LayerPrismCells& c) {
+            // The first round names the cell that took the sliver.
+            return ++rounds == 1 ? std::vector<int32_t>{c.cell_of_tet[6]} : std::vector<int32_t>{};
+        },
+        &poor);
+    EXPECT_EQ(rounds, 2);
+    EXPECT_EQ(cells.prisms, 2); // given back, not split
+    EXPECT_EQ(cells.absorbed, 0);
+    EXPECT_EQ(cells.cells, 3);
+    EXPECT_EQ(cells.cell_of_tet, (std::vector<int32_t>{0, 0, 0, 1, 1, 1, 2}));
 }
 
 } // namespace
