@@ -383,8 +383,12 @@ Vec3 triangle_normal(const TetMesh& mesh, const Triangle& t)
 
 // The internal faces of GroupedFaces below, no boundary faces yet.
 GroupedFaces group_internal_faces(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
-                                  const std::vector<int32_t>& cell_of_tet, int32_t cells)
+                                  const std::vector<int32_t>& cell_of_tet, int32_t cells,
+                                  const std::vector<char>* quad_cells)
 {
+    if (quad_cells && quad_cells->size() != static_cast<size_t>(std::max(cells, 0)))
+        throw std::invalid_argument("quad_cells has " + std::to_string(quad_cells->size()) + " entries for " +
+                                    std::to_string(cells) + " cells");
     if (cell_of_tet.size() != mesh.tets.size())
         throw std::invalid_argument("cell_of_tet has " + std::to_string(cell_of_tet.size()) + " entries for " +
                                     std::to_string(mesh.tets.size()) + " tets");
@@ -427,7 +431,8 @@ GroupedFaces group_internal_faces(const TetMesh& mesh, const TetFaceAdjacency& a
             ++j;
         const Internal& first = internal[i];
         bool quad = false;
-        if (j - i == 2 && size[first.owner] == 3 && size[first.neighbour] == 3) {
+        const auto joins = [&](int32_t c) { return size[c] == 3 && (!quad_cells || (*quad_cells)[c]); };
+        if (j - i == 2 && joins(first.owner) && joins(first.neighbour)) {
             // (u, s, r) and a second triangle on the edge (s, r), taken the
             // other way round: (v, r, s). The quad is u s v r.
             const Triangle& p = first.points;
@@ -457,9 +462,9 @@ GroupedFaces group_internal_faces(const TetMesh& mesh, const TetFaceAdjacency& a
 }
 
 GroupedFaces group_faces(const TetMesh& mesh, const TetFaceAdjacency& adjacency, const FaceOrder& order,
-                         const std::vector<int32_t>& cell_of_tet, int32_t cells)
+                         const std::vector<int32_t>& cell_of_tet, int32_t cells, const std::vector<char>* quad_cells)
 {
-    GroupedFaces out = group_internal_faces(mesh, adjacency, cell_of_tet, cells);
+    GroupedFaces out = group_internal_faces(mesh, adjacency, cell_of_tet, cells, quad_cells);
     for (size_t b = 0; b < order.boundary_blocks(); ++b)
         order.boundary_faces(b, [&](int32_t tet, const Triangle& points) { out.add(cell_of_tet[tet], points.data(), 3); });
     return out;
@@ -499,9 +504,9 @@ FaceGeometry openfoam_face(const TetMesh& mesh, const int32_t* p, int count)
 
 OpenFoamCellChecks openfoam_cell_checks(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
                                         const std::vector<int32_t>& cell_of_tet, int32_t cells,
-                                        const OpenFoamCellBounds& bounds)
+                                        const OpenFoamCellBounds& bounds, const std::vector<char>* quad_cells)
 {
-    const GroupedFaces faces = group_internal_faces(mesh, adjacency, cell_of_tet, cells);
+    const GroupedFaces faces = group_internal_faces(mesh, adjacency, cell_of_tet, cells, quad_cells);
     const size_t internal = faces.neighbour.size();
     // Each face's geometry is computed where it is used, never held: at
     // tens of millions of faces a list of it would cost more than the faces.
@@ -622,7 +627,8 @@ PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& 
     }
 
     GroupedFaces grouped;
-    if (options.cell_of_tet) grouped = group_faces(mesh, adjacency, order, *options.cell_of_tet, options.cells);
+    if (options.cell_of_tet)
+        grouped = group_faces(mesh, adjacency, order, *options.cell_of_tet, options.cells, options.quad_cells);
 
     PolyMeshCounts counts;
     counts.points = static_cast<int64_t>(mesh.points.size());

@@ -29,6 +29,10 @@ struct PolyMeshOptions {
     // for the union's shape (layer_prism_cells keeps only star-shaped ones).
     const std::vector<int32_t>* cell_of_tet = nullptr;
     int32_t cells = 0;
+    // With cell_of_tet, when given (one entry per cell): the cells of three
+    // tets whose faces to each other may be joined into quads, the layer
+    // prisms (LayerPrismCells::prism_cell); by default every cell of three.
+    const std::vector<char>* quad_cells = nullptr;
     // When given, the written files are handed over here, still under their
     // temporary names, for the caller to commit with its other outputs;
     // otherwise they are moved into place before returning.
@@ -106,8 +110,10 @@ struct OpenFoamCellChecks {
 // faces are warped, so a face of it or next to it can pass a check on the
 // tets and fail it here. The cells of more than one tet on a face beyond a
 // bound are returned for the caller to split back into tets.
+// `quad_cells` as PolyMeshOptions::quad_cells.
 OpenFoamCellChecks openfoam_cell_checks(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
                                         const std::vector<int32_t>& cell_of_tet, int32_t cells,
-                                        const OpenFoamCellBounds& bounds = {});
+                                        const OpenFoamCellBounds& bounds = {},
+                                        const std::vector<char>* quad_cells = nullptr);
 
 } // namespace scalemesh

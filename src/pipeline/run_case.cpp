@@ -657,7 +657,8 @@ CaseResult run_and_write(const std::filesystem::path& dir, const CaseConfig& con
             const VolumeResult& v = *result.run.volume;
             OpenFoamCellChecks checks;
             const auto check = [&](const LayerPrismCells& c) {
-                checks = openfoam_cell_checks(mesh, v.adjacency, c.cell_of_tet, c.cells);
+                checks = openfoam_cell_checks(mesh, v.adjacency, c.cell_of_tet, c.cells, {},
+                                              c.prism_cell.empty() ? nullptr : &c.prism_cell);
                 return checks.grouped_cells_failing;
             };
             // With layers = "prisms" a prism is not split for its faces'
@@ -698,7 +699,9 @@ CaseResult run_and_write(const std::filesystem::path& dir, const CaseConfig& con
                 write_polymesh(mesh, dir, {.binary = config.openfoam_binary, .scale = 1e-3, .patch_types = types,
                                      .adjacency = &result.run.volume->adjacency,
                                      .cell_of_tet = config.layer_prisms ? &cells.cell_of_tet : nullptr,
-                                     .cells = cells.cells, .staged = &pending});
+                                     .cells = cells.cells,
+                                     .quad_cells = config.layer_prisms ? &cells.prism_cell : nullptr,
+                                     .staged = &pending});
             result.polymesh = counts;
             std::vector<std::string> names;
             std::vector<PatchRole> roles;

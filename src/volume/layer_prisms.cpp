@@ -209,7 +209,10 @@ LayerPrismCells layer_prism_cells(const TetMesh& mesh, const TetFaceAdjacency& a
     out.cell_of_tet.assign(tets, -1);
     for (size_t t = 0; t < tets; ++t) {
         const int32_t lead = leader[t] < 0 ? static_cast<int32_t>(t) : leader[t];
-        if (out.cell_of_tet[lead] < 0) out.cell_of_tet[lead] = out.cells++;
+        if (out.cell_of_tet[lead] < 0) {
+            out.cell_of_tet[lead] = out.cells++;
+            out.prism_cell.push_back(leader[t] >= 0);
+        }
         out.cell_of_tet[t] = out.cell_of_tet[lead];
     }
     return out;
@@ -268,8 +271,8 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
     }
     std::sort(poor.begin(), poor.end());
 
-    std::vector<char> was_prism(members.size()), grew(members.size(), 0);
-    for (size_t c = 0; c < members.size(); ++c) was_prism[c] = members[c].size() == 3;
+    std::vector<char> was_prism(members.size(), 0), grew(members.size(), 0);
+    for (size_t c = 0; c < members.size() && c < cells.prism_cell.size(); ++c) was_prism[c] = cells.prism_cell[c];
     int64_t joined = 0;
     for (const auto& [dihedral, t] : poor) {
         if (members[cell[t]].size() != 1) continue; // another tet joined it meanwhile
@@ -294,6 +297,7 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
         const auto consider = [&](int32_t c0, int32_t c1) {
             const auto inside = [&](int32_t c) { return c == c0 || c == c1; };
             const size_t size = members[c0].size() + (c1 >= 0 ? members[c1].size() : 0) + 1;
+            // A second cell that already took a tet keeps that union as it is.
             if (static_cast<int32_t>(size) > bounds.max_cell_tets) return;
             if (!refused.empty() && std::find(refused[t].begin(), refused[t].end(), name(c0, c1)) != refused[t].end())
                 return;
@@ -313,7 +317,8 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
                     if (!faces_centre(mesh.points[f[0]], mesh.points[f[1]], mesh.points[f[2]], joint, min_sine))
                         star = false;
                     else if (a >= 0)
-                        worst = std::min(worst, face_cosine(u, j, joint));
+                        worst = std::min(face_cosine(u, j, joint), worst); // a NaN cosine stays, and refuses
+
                 }
             };
             outer(t);
@@ -327,7 +332,14 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
             for (size_t j = i + 1; j < across_cells.size(); ++j) consider(across_cells[i], across_cells[j]);
         }
         if (best[0] < 0) continue;
-        if (chosen) (*chosen)[t] = name(best[0], best[1]);
+        if (chosen) {
+            // A tet that joined one of these cells before keeps its union
+            // unrefused: if the cell fails, this union is the one undone.
+            for (const int32_t c : best)
+                if (c >= 0)
+                    for (const int32_t u : members[c]) (*chosen)[u] = TetUnion{-1, -1};
+            (*chosen)[t] = name(best[0], best[1]);
+        }
         const auto join = [&](int32_t u, int32_t into) {
             const int32_t from = cell[u];
             moment[from] -= tet_volume[u] * centroid[u];
@@ -352,8 +364,12 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
     // Cells numbered in the order of their first tet again.
     std::vector<int32_t> number(members.size(), -1);
     cells.cells = 0;
+    cells.prism_cell.clear();
     for (size_t t = 0; t < tets; ++t) {
-        if (number[cell[t]] < 0) number[cell[t]] = cells.cells++;
+        if (number[cell[t]] < 0) {
+            number[cell[t]] = cells.cells++;
+            cells.prism_cell.push_back(was_prism[cell[t]] && !grew[cell[t]]);
+        }
         cell[t] = number[cell[t]];
     }
     cells.absorbed += joined;
@@ -384,24 +400,21 @@ LayerPrismCells checked_layer_prism_cells(const TetMesh& mesh, const TetFaceAdja
                                                   max_non_orthogonality_deg, &apart);
         if (absorb) absorb_poor_tets(mesh, adjacency, cells, *absorb, refused, &chosen);
         const std::vector<int32_t> failing = failing_cells(cells);
-        std::vector<char> undo(static_cast<size_t>(cells.cells), 0), gave_back(static_cast<size_t>(cells.cells), 0);
+        std::vector<char> undo(static_cast<size_t>(cells.cells), 0);
         for (int32_t c : failing)
             if (c >= 0 && c < cells.cells) undo[c] = 1;
         // Each round refuses a union not refused before or marks tets not
         // marked before (a round that does neither ends it), so the rounds
-        // end. A failing cell that absorbed tets gives them back first; a
-        // prism is split only when it fails alone.
-        bool more = false;
+        // end. Failing unions are undone first, and prisms are split only in
+        // a round that undoes none: a prism named next to a failing union
+        // may pass once the union is gone.
+        bool refusing = false;
         for (size_t t = 0; t < tets && absorb; ++t)
-            if (undo[cells.cell_of_tet[t]] && chosen[t][0] >= 0) {
-                refused[t].push_back(chosen[t]);
-                gave_back[cells.cell_of_tet[t]] = 1, more = true;
-            }
-        for (size_t t = 0; t < tets; ++t) {
-            const int32_t c = cells.cell_of_tet[t];
-            if (undo[c] && !gave_back[c] && !apart[t]) apart[t] = 1, more = true;
-        }
-        if (!more) return cells;
+            if (undo[cells.cell_of_tet[t]] && chosen[t][0] >= 0) refused[t].push_back(chosen[t]), refusing = true;
+        bool splitting = false;
+        for (size_t t = 0; t < tets && !refusing; ++t)
+            if (undo[cells.cell_of_tet[t]] && !apart[t]) apart[t] = 1, splitting = true;
+        if (!refusing && !splitting) return cells;
     }
 }
 

@@ -14,11 +14,12 @@ namespace scalemesh {
 struct LayerPrismCells {
     std::vector<int32_t> cell_of_tet; // per tet: its cell, numbered in the order of each cell's first tet
     int32_t cells = 0;
-    int64_t prisms = 0;  // cells of three tets
+    int64_t prisms = 0;  // intact layer prisms: cells of exactly a prism's three tets
     int64_t refused = 0; // prisms filled by three tets left as tets: not star-shaped from their centroid,
                          // or a face beyond the non-orthogonality bound
     int64_t absorbed = 0; // poor tets joined to a neighbouring cell (absorb_poor_tets); `prisms` counts
                           // the prism cells that took none
+    std::vector<char> prism_cell; // per cell: an intact layer prism (PolyMeshOptions::quad_cells)
 };
 
 // A layer prism is the wedge between the points of three boundary nodes a,
@@ -74,12 +75,15 @@ struct PoorTetBounds {
 // star-shaped from its centroid (as layer_prism_cells asks of a prism) and
 // has no face beyond the bound, the one of the least non-orthogonality
 // among them. A tet with no such union stays a cell of its own. Cells are
-// renumbered in the order of their first tet. Returns the tets joined.
+// renumbered in the order of their first tet, and `prism_cell` with them
+// (a prism that took a tet is none). Returns the tets joined.
 //
 // A union is named by the lowest tet of each cell joined, {lowest of the
 // first, lowest of the second or -1}. `refused` (one list per tet, or
 // empty) names unions not to make again; `chosen` (if given) receives the
-// union each tet joined, {-1, -1} for the others.
+// union each tet joined, {-1, -1} for the others and for a tet whose cell a
+// later union took in (that later union is the one to refuse if the cell
+// fails).
 using TetUnion = std::array<int32_t, 2>;
 int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency, LayerPrismCells& cells,
                          const PoorTetBounds& bounds, const std::vector<std::vector<TetUnion>>& refused = {},
@@ -105,10 +109,10 @@ using FailingCells = std::function<std::vector<int32_t>(const LayerPrismCells&)>
 
 // layer_prism_cells (then absorb_poor_tets with `absorb`, if given), then
 // the cells `failing_cells` names undone: a cell that absorbed a tet gives
-// it back (that union is refused from then on; the tet may join another), a
-// prism is split back into tets; and again, until it names no cell of
-// several tets. The cells
-// returned are the last ones checked.
+// it back (that union is refused from then on; the tet may join another);
+// in a round that gives none back, each prism named is split back into
+// tets. Again, until a round does neither. The cells returned are the last
+// ones checked.
 LayerPrismCells checked_layer_prism_cells(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
                                           const std::vector<int32_t>& point_generator,
                                           const std::vector<int32_t>& point_layer,

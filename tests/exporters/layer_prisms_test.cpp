@@ -153,6 +153,15 @@ TEST(LayerPrisms, PolyMeshWritesEachPrismAsOneCellAndTheirSharedQuadAsOneFace)
         // OpenFOAM's prism shape: two polyhedra of seven faces.
         EXPECT_NE(check.log.find("polyhedra:     2"), std::string::npos) << check.log;
     }
+    // A cell of three tets that is not named a prism joins no quad.
+    const std::vector<char> one_prism{1, 0};
+    const TempDir apart;
+    const PolyMeshCounts triangles = write_polymesh(
+        s.mesh, apart.path,
+        {.patch_types = {}, .cell_of_tet = &cells.cell_of_tet, .cells = cells.cells, .quad_cells = &one_prism});
+    EXPECT_EQ(triangles.cells, 2);
+    EXPECT_EQ(triangles.internal_faces, 2);
+    EXPECT_EQ(triangles.quad_faces, 0);
     // The same mesh as tets: six cells, the quad as two triangles each way.
     const TempDir dir;
     const PolyMeshCounts tets = write_polymesh(s.mesh, dir.path);
@@ -325,13 +334,16 @@ TEST(LayerPrisms, ASliverOnAPrismJoinsItAsOnePolyhedron)
     EXPECT_EQ(cells.absorbed, 1);
     EXPECT_EQ(cells.prisms, 1); // the prism that took the sliver is a polyhedron now
     EXPECT_EQ(cells.cell_of_tet, (std::vector<int32_t>{0, 0, 0, 1, 1, 1, 0}));
+    EXPECT_EQ(cells.prism_cell, (std::vector<char>{0, 1}));
     EXPECT_EQ(chosen[6], (TetUnion{0, -1}));
     for (size_t t = 0; t < 6; ++t) EXPECT_EQ(chosen[t], (TetUnion{-1, -1}));
 
     const TempDir dir;
-    const PolyMeshCounts counts =
-        write_polymesh(s.mesh, dir.path, {.cell_of_tet = &cells.cell_of_tet, .cells = cells.cells});
+    const PolyMeshCounts counts = write_polymesh(
+        s.mesh, dir.path,
+        {.patch_types = {}, .cell_of_tet = &cells.cell_of_tet, .cells = cells.cells, .quad_cells = &cells.prism_cell});
     EXPECT_EQ(counts.cells, 2);
+    EXPECT_EQ(counts.quad_faces, 0); // no quad from a prism to a polyhedron
     if (openfoam_available()) {
         const CheckMeshFigures check = check_mesh(dir.path);
         EXPECT_TRUE(check.ok) << check.log;
@@ -356,6 +368,41 @@ TEST(LayerPrisms, ASliverOnAPrismJoinsItAsOnePolyhedron)
                                PoorTetBounds{.min_aspect_ratio = 0, .min_dihedral_deg = 0,
                                              .max_non_orthogonality_deg = 90}),
               0);
+}
+
+// A sliver in the crease of the two prisms' top: points 5 and 7 raised by
+// 0.002 make the top a shallow valley along the diagonal 4-6, which tet
+// (4, 5, 6, 7) fills; its two lower faces lie on the two prisms.
+TEST(LayerPrisms, ASliverOnTwoPrismsJoinsBothWhereNeitherAloneSeesIt)
+{
+    const double z = 0.25, e = 0.002;
+    TwoPrisms s = two_prisms({{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, z}, {1, 0, z + e}, {1, 1, z},
+                              {0, 1, z + e}});
+    const auto& p = s.mesh.points;
+    Tet sliver{4, 5, 6, 7};
+    if (tet_volume6(p[4], p[5], p[6], p[7]) < 0) std::swap(sliver[0], sliver[1]);
+    s.mesh.tets.push_back(sliver);
+    set_boundary(s.mesh);
+    ASSERT_LT(tet_min_dihedral_deg(p[4], p[5], p[6], p[7]), 10.0);
+    const TetFaceAdjacency adjacency = tet_face_adjacency(s.mesh);
+    const LayerPrismCells found = layer_prism_cells(s.mesh, adjacency, s.generator, s.layer, s.filler);
+    ASSERT_EQ(found.prisms, 2);
+    ASSERT_EQ(found.cells, 3);
+
+    // Within six tets neither prism may take it (its face on the other
+    // prism would face away from the union's centre), nor both.
+    LayerPrismCells six = found;
+    EXPECT_EQ(absorb_poor_tets(s.mesh, adjacency, six, PoorTetBounds{}), 0);
+    EXPECT_EQ(six.cells, 3);
+
+    LayerPrismCells seven = found;
+    std::vector<TetUnion> chosen;
+    EXPECT_EQ(absorb_poor_tets(s.mesh, adjacency, seven, PoorTetBounds{.max_cell_tets = 7}, {}, &chosen), 1);
+    EXPECT_EQ(seven.cells, 1);
+    EXPECT_EQ(seven.prisms, 0);
+    EXPECT_EQ(seven.absorbed, 1);
+    EXPECT_EQ(seven.cell_of_tet, std::vector<int32_t>(7, 0));
+    EXPECT_EQ(chosen[6], (TetUnion{0, 3})); // the lowest tet of each prism, ascending
 }
 
 TEST(LayerPrisms, CheckedCellsGiveAnAbsorbedTetBackWhereTheUnionFails)
