@@ -8,7 +8,9 @@ it, and prints one Markdown row per case from its report.json: the share of
 wall faces x layers written as single prism cells, the largest face
 non-orthogonality OpenFOAM sees, the smallest dihedral angle of the tets
 written as cells of their own, the layer account's coverage, the columns the
-stack shortened and checkMesh's verdict. These are the figures of
+stack shortened, the columns holding all layers (of the wall nodes owed them)
+with their height over Algorithm 4's, the tets joined to a neighbouring cell
+and checkMesh's verdict. These are the figures of
 docs/case-file.md's `layers` row.
 
     python3 validation/prism_layers.py [--scalemesh build/src/cli/scalemesh] [case ...]
@@ -58,8 +60,8 @@ def main():
     env = dict(os.environ)
     env.setdefault("WM_PROJECT_DIR", "/usr/share/openfoam")
     print("| case | intact prisms | max non-orthogonality (deg) | min dihedral of tet cells (deg) | layer coverage | "
-          "shortened columns | checkMesh |")
-    print("|---|---|---|---|---|---|---|")
+          "shortened columns | whole columns, height (mean, min) | tets joined | checkMesh |")
+    print("|---|---|---|---|---|---|---|---|---|")
     failed = False
     with tempfile.TemporaryDirectory(prefix="prism-layers-") as scratch:
         for name in names:
@@ -67,7 +69,7 @@ def main():
             prism_case(os.path.join(REPO, "cases", name), case)
             run = subprocess.run([args.scalemesh, "run", case, "-q"], capture_output=True, text=True)
             if run.returncode != 0:
-                print(f"| {name} | run failed ({run.returncode}): {run.stderr.strip()} | | | | | |")
+                print(f"| {name} | run failed ({run.returncode}): {run.stderr.strip()} | | | | | | | |")
                 failed = True
                 continue
             check = subprocess.run(["checkMesh", "-case", case], capture_output=True, text=True, env=env)
@@ -78,6 +80,8 @@ def main():
             foam, layers, volume = report["openfoam"], report["layers"], report["volume"]
             print(f"| {name} | {100 * foam['intact_prism_share']:.1f}% | {foam['max_non_orthogonality_deg']:.1f} | "
                   f"{foam['tet_cells_min_dihedral_deg']:.2f} | {100 * layers['coverage']:.1f}% | {volume['stack_shortened_nodes']} of {layers['wall_nodes']} | "
+                  f"{volume['stack_whole_columns']} of {layers['eligible_wall_nodes']}, "
+                  f"{volume['stack_height_mean']:.2f}, {volume['stack_height_min']:.2f} | {foam['absorbed_tets']} | "
                   f"{verdict} |")
             sys.stdout.flush()
     return 1 if failed else 0

@@ -453,6 +453,25 @@ void build_stacked_mesh(const SurfaceMesh& surface, const FeatureSize& sizing, c
     }
     result.layers = account_layers(surface, sizing, params.M, params.L_min, raw, raw, fates, final_points,
                                    params.layer_tolerance);
+    // The columns themselves: every layer is there as a prism layer where
+    // the column is, only thinner where it was shortened. Over the nodes
+    // the account owes all layers: those with a column, and its height
+    // (wall node to top) over the height Algorithm 4 gave it.
+    double height_sum = 0;
+    result.stack_whole_columns = 0;
+    result.stack_height_min = 1;
+    for (const OffsetPoint& p : raw) {
+        const int32_t v = p.generator;
+        if (p.filler || p.layer != L || L == 0 || !result.layers.eligible[v] || stack.first[v] < 0) continue;
+        const double planned = distance(p.position, surface.points[v]);
+        if (!(planned > 0)) continue;
+        const double h = distance(mesh.points[n + stack.first[v] + L - 1], surface.points[v]) / planned;
+        ++result.stack_whole_columns;
+        height_sum += h;
+        result.stack_height_min = std::min(result.stack_height_min, h);
+    }
+    result.stack_height_mean = result.stack_whole_columns ? height_sum / double(result.stack_whole_columns) : 1.0;
+    if (result.stack_whole_columns == 0) result.stack_height_min = 1;
     result.seconds_quality += seconds_since(t0);
 }
 

@@ -89,6 +89,10 @@ struct VolumeResult {
     int64_t stack_borrowed_columns = 0; // LayerMode::prisms: wall nodes given their neighbours' mean column,
     int64_t stack_lenient_prisms = 0;   // and wall triangles whose prisms were accepted less strictly, and those
     int64_t stack_holes = 0;            // left without layers (LayerStack)
+    int64_t stack_whole_columns = 0;    // LayerMode::prisms: wall nodes owed all layers (LayerAccount::eligible)
+                                        // whose column holds them all, as prism layers
+    double stack_height_mean = 1;       // and those columns' height over the height Algorithm 4 gave them:
+    double stack_height_min = 1;        // mean and smallest (below 1 where a column was shortened)
     int64_t filtered_points = 0; // removed by the interior-point filter
     int64_t inserted_points = 0; // interior points in the triangulation after insertion
     int64_t rejected_small = 0;  // final rejections for (i), tiny tets

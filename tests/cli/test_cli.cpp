@@ -389,6 +389,21 @@ TEST(Cli, PrismLayersReachOpenFoamIntactWhereDelaunayLayersDoNot)
         if (run.layers != "prisms") {
             EXPECT_EQ(report["openfoam"]["absorbed_tets"].get<int64_t>(), 0) << what;
         }
+        // What the prism columns hold: every node owed its layers that keeps
+        // them at their places has a whole column, and a column is no
+        // taller than Algorithm 4 made it but for the slide of its top
+        // (layer_tolerance, 0.15 of a layer).
+        const auto& volume = report["volume"];
+        const int64_t whole = volume["stack_whole_columns"].get<int64_t>();
+        if (run.layers == "prisms") {
+            EXPECT_GE(whole, report["layers"]["eligible_with_all_layers"].get<int64_t>()) << what;
+            EXPECT_LE(whole, report["layers"]["eligible_wall_nodes"].get<int64_t>()) << what;
+            EXPECT_GT(volume["stack_height_min"].get<double>(), 0.0) << what;
+            EXPECT_LE(volume["stack_height_min"].get<double>(), volume["stack_height_mean"].get<double>()) << what;
+            EXPECT_LE(volume["stack_height_mean"].get<double>(), 1.15) << what;
+        } else {
+            EXPECT_EQ(whole, 0) << what;
+        }
         if (run.phantom == "torus" && run.layers == "prisms") {
             EXPECT_GE(tet_cells.get<double>(), 10.0) << what;
             EXPECT_LT(report["openfoam"]["max_non_orthogonality_deg"].get<double>(), 70.0) << what;
