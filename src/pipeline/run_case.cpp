@@ -682,7 +682,7 @@ CaseResult run_and_write(const std::filesystem::path& dir, const CaseConfig& con
             // With layers = "prisms", a tet cell below the aspect-ratio or
             // dihedral floor or on a face beyond 69.5 degrees (a sliver the
             // core's tets leave in a crease of the layers' top, pinned by the
-            // locked prisms) is joined to one or two neighbouring cells where
+            // locked prisms) is joined to one to three neighbouring cells where
             // their union is a sound polyhedron (OpenFOAM's checks decide).
             const PoorTetBounds poor{.min_aspect_ratio = config.min_aspect_ratio,
                                      .min_dihedral_deg = config.min_dihedral_deg,

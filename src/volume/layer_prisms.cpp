@@ -226,7 +226,7 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
     if (cells.cell_of_tet.size() != tets || (!refused.empty() && refused.size() != tets) ||
         adjacency.across.size() != 4 * tets)
         throw std::invalid_argument("absorb_poor_tets: the cells, `refused` or the adjacency are not of this mesh");
-    if (chosen) chosen->assign(tets, TetUnion{-1, -1});
+    if (chosen) chosen->assign(tets, TetUnion{-1, -1, -1});
     std::vector<int32_t>& cell = cells.cell_of_tet;
     // Each cell's tets, and the volume-weighted sum of their centroids.
     std::vector<std::vector<int32_t>> members(static_cast<size_t>(cells.cells));
@@ -288,48 +288,66 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
         const auto lowest = [&](int32_t c) {
             return c < 0 ? -1 : *std::min_element(members[c].begin(), members[c].end());
         };
-        const auto name = [&](int32_t c0, int32_t c1) {
-            const TetUnion u{lowest(c0), lowest(c1)};
-            return u[1] >= 0 && u[1] < u[0] ? TetUnion{u[1], u[0]} : u;
+        // A union's name: the lowest tet of each of its cells, ascending, -1
+        // after them.
+        const auto name = [&](const TetUnion& cells_joined) {
+            TetUnion u{-1, -1, -1};
+            size_t k = 0;
+            for (const int32_t c : cells_joined)
+                if (c >= 0) u[k++] = lowest(c);
+            std::sort(u.begin(), u.begin() + static_cast<std::ptrdiff_t>(k));
+            return u;
         };
-        std::array<int32_t, 2> best{-1, -1};
+        TetUnion best{-1, -1, -1};
         double best_cosine = min_cosine;
-        const auto consider = [&](int32_t c0, int32_t c1) {
-            const auto inside = [&](int32_t c) { return c == c0 || c == c1; };
-            const size_t size = members[c0].size() + (c1 >= 0 ? members[c1].size() : 0) + 1;
-            // A second cell that already took a tet keeps that union as it is.
+        const auto consider = [&](const TetUnion& with) {
+            const auto inside = [&](int32_t c) { return c >= 0 && std::find(with.begin(), with.end(), c) != with.end(); };
+            size_t size = 1;
+            Vec3 m = tet_volume[t] * centroid[t];
+            double v = tet_volume[t];
+            for (const int32_t c : with)
+                if (c >= 0) size += members[c].size(), m += moment[c], v += volume[c];
             if (static_cast<int32_t>(size) > bounds.max_cell_tets) return;
-            if (!refused.empty() && std::find(refused[t].begin(), refused[t].end(), name(c0, c1)) != refused[t].end())
+            if (!refused.empty() && std::find(refused[t].begin(), refused[t].end(), name(with)) != refused[t].end())
                 return;
-            Vec3 m = moment[c0] + tet_volume[t] * centroid[t];
-            double v = volume[c0] + tet_volume[t];
-            if (c1 >= 0) m += moment[c1], v += volume[c1];
             const Vec3 joint = m / v;
             // The union's outer faces: star-shaped from `joint`, and their
             // worst cosine to the cells across.
             double worst = 1;
             bool star = true;
+            std::vector<int32_t> on_faces, all_points; // the union's points: each must stay on an outer face
             const auto outer = [&](int32_t u) {
+                all_points.insert(all_points.end(), mesh.tets[u].begin(), mesh.tets[u].end());
                 for (int j = 0; j < 4 && star; ++j) {
                     const int32_t a = adjacency.across[4 * u + j];
                     if (a >= 0 && (inside(cell[a]) || a == t)) continue;
                     const Triangle f = tet_face(mesh.tets[u], j);
+                    on_faces.insert(on_faces.end(), f.begin(), f.end());
                     if (!faces_centre(mesh.points[f[0]], mesh.points[f[1]], mesh.points[f[2]], joint, min_sine))
                         star = false;
                     else if (a >= 0)
                         worst = std::min(face_cosine(u, j, joint), worst); // a NaN cosine stays, and refuses
-
                 }
             };
             outer(t);
-            for (const int32_t u : members[c0]) outer(u);
-            if (c1 >= 0)
-                for (const int32_t u : members[c1]) outer(u);
-            if (star && worst > best_cosine) best = {c0, c1}, best_cosine = worst;
+            for (const int32_t c : with)
+                if (c >= 0)
+                    for (const int32_t u : members[c]) outer(u);
+            if (!star || !(worst > best_cosine)) return;
+            // A point all of whose tets the union holds would lie inside the
+            // cell, on no face: OpenFOAM fails a mesh with an unused point.
+            std::sort(on_faces.begin(), on_faces.end());
+            for (const int32_t p : all_points)
+                if (!std::binary_search(on_faces.begin(), on_faces.end(), p)) return;
+            best = with, best_cosine = worst;
         };
-        for (size_t i = 0; i < across_cells.size(); ++i) {
-            consider(across_cells[i], -1);
-            for (size_t j = i + 1; j < across_cells.size(); ++j) consider(across_cells[i], across_cells[j]);
+        const size_t k = across_cells.size();
+        for (size_t a = 0; a < k; ++a) {
+            consider({across_cells[a], -1, -1});
+            for (size_t b = a + 1; b < k; ++b) {
+                consider({across_cells[a], across_cells[b], -1});
+                for (size_t c = b + 1; c < k; ++c) consider({across_cells[a], across_cells[b], across_cells[c]});
+            }
         }
         if (best[0] < 0) continue;
         if (chosen) {
@@ -337,8 +355,8 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
             // unrefused: if the cell fails, this union is the one undone.
             for (const int32_t c : best)
                 if (c >= 0)
-                    for (const int32_t u : members[c]) (*chosen)[u] = TetUnion{-1, -1};
-            (*chosen)[t] = name(best[0], best[1]);
+                    for (const int32_t u : members[c]) (*chosen)[u] = TetUnion{-1, -1, -1};
+            (*chosen)[t] = name(best);
         }
         const auto join = [&](int32_t u, int32_t into) {
             const int32_t from = cell[u];
@@ -351,11 +369,12 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
             volume[into] += tet_volume[u];
         };
         join(t, best[0]);
-        if (best[1] >= 0) {
-            const std::vector<int32_t> second = members[best[1]];
-            for (const int32_t u : second) join(u, best[0]);
-            grew[best[1]] = 1;
-        }
+        for (size_t k = 1; k < best.size(); ++k)
+            if (best[k] >= 0) {
+                const std::vector<int32_t> other = members[best[k]];
+                for (const int32_t u : other) join(u, best[0]);
+                grew[best[k]] = 1;
+            }
         grew[best[0]] = 1;
         ++joined;
     }

@@ -68,23 +68,24 @@ struct PoorTetBounds {
 };
 
 // Joins each poor tet cell (worst dihedral angle first) to the neighbouring
-// cell across one of its faces, a tet or a prism, or to two of them (a flat
-// tet's two faces on one side may lie on two cells, and only their union
-// sees its other faces from inside), so that the solver sees one
+// cell across one of its faces, a tet or a prism, or to two or three of them
+// (a flat tet's two faces on one side may lie on two cells, and only their
+// union sees its other faces from inside), so that the solver sees one
 // polyhedral cell where it would see a sliver: the union that is
 // star-shaped from its centroid (as layer_prism_cells asks of a prism) and
 // has no face beyond the bound, the one of the least non-orthogonality
-// among them. A tet with no such union stays a cell of its own. Cells are
+// among them, leaving every point of its tets on one of its faces (a point
+// inside a cell would be on no face, which OpenFOAM refuses). A tet with no
+// such union stays a cell of its own. Cells are
 // renumbered in the order of their first tet, and `prism_cell` with them
 // (a prism that took a tet is none). Returns the tets joined.
 //
-// A union is named by the lowest tet of each cell joined, {lowest of the
-// first, lowest of the second or -1}. `refused` (one list per tet, or
-// empty) names unions not to make again; `chosen` (if given) receives the
-// union each tet joined, {-1, -1} for the others and for a tet whose cell a
-// later union took in (that later union is the one to refuse if the cell
-// fails).
-using TetUnion = std::array<int32_t, 2>;
+// A union is named by the lowest tet of each cell joined, ascending, -1
+// after them. `refused` (one list per tet, or empty) names unions not to
+// make again; `chosen` (if given) receives the union each tet joined,
+// {-1, -1, -1} for the others and for a tet whose cell a later union took in
+// (that later union is the one to refuse if the cell fails).
+using TetUnion = std::array<int32_t, 3>;
 int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency, LayerPrismCells& cells,
                          const PoorTetBounds& bounds, const std::vector<std::vector<TetUnion>>& refused = {},
                          std::vector<TetUnion>* chosen = nullptr);

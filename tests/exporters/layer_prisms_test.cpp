@@ -335,8 +335,8 @@ TEST(LayerPrisms, ASliverOnAPrismJoinsItAsOnePolyhedron)
     EXPECT_EQ(cells.prisms, 1); // the prism that took the sliver is a polyhedron now
     EXPECT_EQ(cells.cell_of_tet, (std::vector<int32_t>{0, 0, 0, 1, 1, 1, 0}));
     EXPECT_EQ(cells.prism_cell, (std::vector<char>{0, 1}));
-    EXPECT_EQ(chosen[6], (TetUnion{0, -1}));
-    for (size_t t = 0; t < 6; ++t) EXPECT_EQ(chosen[t], (TetUnion{-1, -1}));
+    EXPECT_EQ(chosen[6], (TetUnion{0, -1, -1}));
+    for (size_t t = 0; t < 6; ++t) EXPECT_EQ(chosen[t], (TetUnion{-1, -1, -1}));
 
     const TempDir dir;
     const PolyMeshCounts counts = write_polymesh(
@@ -354,7 +354,7 @@ TEST(LayerPrisms, ASliverOnAPrismJoinsItAsOnePolyhedron)
     // max_cell_tets: the sliver stays a cell of its own.
     LayerPrismCells again = found;
     std::vector<std::vector<TetUnion>> refused(s.mesh.tets.size());
-    refused[6].push_back({0, -1});
+    refused[6].push_back({0, -1, -1});
     EXPECT_EQ(absorb_poor_tets(s.mesh, adjacency, again, PoorTetBounds{}, refused), 0);
     EXPECT_EQ(again.cells, 3);
     EXPECT_EQ(again.prisms, 2);
@@ -402,7 +402,39 @@ TEST(LayerPrisms, ASliverOnTwoPrismsJoinsBothWhereNeitherAloneSeesIt)
     EXPECT_EQ(seven.prisms, 0);
     EXPECT_EQ(seven.absorbed, 1);
     EXPECT_EQ(seven.cell_of_tet, std::vector<int32_t>(7, 0));
-    EXPECT_EQ(chosen[6], (TetUnion{0, 3})); // the lowest tet of each prism, ascending
+    EXPECT_EQ(chosen[6], (TetUnion{0, 3, -1})); // the lowest tet of each prism, ascending
+}
+
+// A tet split at a point P just inside its face (1, 2, 3): tet (P, 1, 2, 3)
+// is a sliver, and the three others are its neighbours. Joined with all
+// three it would hold every tet at P, which would lie inside the cell on
+// no face; at most two of them may take it.
+TEST(LayerPrisms, NoUnionSwallowsAPoint)
+{
+    TetMesh mesh;
+    mesh.points = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0.32, 0.32, 0.32}};
+    for (Tet t : {Tet{4, 1, 2, 3}, Tet{0, 4, 2, 3}, Tet{0, 1, 4, 3}, Tet{0, 1, 2, 4}}) {
+        const auto& p = mesh.points;
+        if (tet_volume6(p[t[0]], p[t[1]], p[t[2]], p[t[3]]) < 0) std::swap(t[0], t[1]);
+        mesh.tets.push_back(t);
+    }
+    set_boundary(mesh);
+    const auto& p = mesh.points;
+    ASSERT_LT(tet_min_dihedral_deg(p[4], p[1], p[2], p[3]), 10.0);
+    const TetFaceAdjacency adjacency = tet_face_adjacency(mesh);
+    LayerPrismCells cells = single_tets(mesh);
+    cells.prism_cell.assign(4, 0);
+    absorb_poor_tets(mesh, adjacency, cells, PoorTetBounds{.max_non_orthogonality_deg = 90});
+    EXPECT_GE(cells.cells, 2);
+    const TempDir dir;
+    const PolyMeshCounts counts = write_polymesh(
+        mesh, dir.path,
+        {.patch_types = {}, .cell_of_tet = &cells.cell_of_tet, .cells = cells.cells, .quad_cells = &cells.prism_cell});
+    EXPECT_EQ(counts.cells, cells.cells);
+    if (openfoam_available()) {
+        const CheckMeshFigures check = check_mesh(dir.path);
+        EXPECT_TRUE(check.ok) << check.log;
+    }
 }
 
 TEST(LayerPrisms, CheckedCellsGiveAnAbsorbedTetBackWhereTheUnionFails)
