@@ -742,7 +742,7 @@ runs `--quick`: M = {qm}, the schemes scalemesh writes, asserting the mean wall 
                                                             ("the cylinder STL", cylinder)) if on),
                        series_heads=" | ".join(sname for _, sname, _ in series), series_rule="---|" * len(series),
                        surface_cli=(" --surface " + " ".join(surface_of(kind) for kind, _, _ in series)
-                                    if [kind for kind, _, _ in series] != ["scalemesh"] else ""),
+                                    if series and [kind for kind, _, _ in series] != ["scalemesh"] else ""),
                        set_cli=(" \\\n    --set " + " ".join("'%s.%s=%s'" % s for s in SCALEMESH_SETTINGS)
                                 if SCALEMESH_SETTINGS else ""),
                        title_note=(" (%s)" % ", ".join(s for s in (args.grad, args.laplacian) if s)
@@ -803,11 +803,15 @@ def main():
                     "pointCellsLeastSquares scalemesh writes")
     ap.add_argument("--laplacian", help="laplacian and snGrad scheme for every case (e.g. 'limited corrected "
                     "0.5') instead of the `corrected` scalemesh writes")
-    ap.add_argument("--out", default=os.path.join(REPO, "validation"), help="results.json, results.csv, tube.png")
+    ap.add_argument("--out", help="results.json, results.csv, tube.png (default: validation/, or with --from-json the "
+                    "first JSON's directory)")
     ap.add_argument("--doc", default=os.path.join(REPO, "docs", "validation.md"))
     ap.add_argument("--notes", default=os.path.join(REPO, "validation", "notes.md"),
                     help="hand-written findings appended to the page")
     args = ap.parse_args()
+    if args.out is None:
+        args.out = os.path.dirname(os.path.abspath(args.from_json[0])) if args.from_json else \
+            os.path.join(REPO, "validation")
     for item in args.set:
         m = re.match(r"([A-Za-z_]+)\.([A-Za-z_]+)=(.+)$", item)
         if not m:
@@ -863,6 +867,13 @@ def main():
             for r in json.load(open(path)):
                 merged[(r["mesher"], r["parameter"])] = r
         results = list(merged.values())
+        if not SCALEMESH_SETTINGS:
+            # The case-file settings the scalemesh meshes were made with, for the page's rerun command.
+            for text in sorted({r["settings"] for r in results if r.get("settings")}):
+                for part in text.split(", "):
+                    m = re.match(r"([A-Za-z_]+)\.([A-Za-z_]+) = (.+)$", part)
+                    if m and m.groups() not in SCALEMESH_SETTINGS:
+                        SCALEMESH_SETTINGS.append(m.groups())
         if len({(r.get("grad_scheme", "as written"), r.get("laplacian", "as written")) for r in results}) != 1:
             sys.exit("the results of %s were run with different schemes" % " ".join(args.from_json))
         args.M = sorted({r["parameter"] for r in results if r["mesher"] in SCALEMESH_SURFACES.values()})

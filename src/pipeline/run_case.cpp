@@ -433,8 +433,10 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
                             {"stack_lenient_prisms", v.stack_lenient_prisms},
                             {"stack_bare_wall_triangles", v.stack_holes},
                             {"stack_whole_columns", v.stack_whole_columns},
-                            {"stack_height_mean", v.stack_height_mean},
-                            {"stack_height_min", v.stack_height_min},
+                            {"stack_height_mean", v.stack_whole_columns ? nlohmann::json(v.stack_height_mean)
+                                                                        : nlohmann::json()},
+                            {"stack_height_min", v.stack_whole_columns ? nlohmann::json(v.stack_height_min)
+                                                                       : nlohmann::json()},
                             {"flips_3_2", v.flips_32},
                             {"flips_2_3", v.flips_23},
                             {"flips_4_4", v.flips_44},

@@ -295,7 +295,9 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
             size_t k = 0;
             for (const int32_t c : cells_joined)
                 if (c >= 0) u[k++] = lowest(c);
-            std::sort(u.begin(), u.begin() + static_cast<std::ptrdiff_t>(k));
+            for (size_t a = 0; a + 1 < k; ++a) // at most three: a bubble sort
+                for (size_t b = 0; b + 1 < k - a; ++b)
+                    if (u[b] > u[b + 1]) std::swap(u[b], u[b + 1]);
             return u;
         };
         TetUnion best{-1, -1, -1};
@@ -326,7 +328,7 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
                     if (!faces_centre(mesh.points[f[0]], mesh.points[f[1]], mesh.points[f[2]], joint, min_sine))
                         star = false;
                     else if (a >= 0)
-                        worst = std::min(face_cosine(u, j, joint), worst); // a NaN cosine stays, and refuses
+                        if (const double c = face_cosine(u, j, joint); !(c >= worst)) worst = c; // NaN sticks
                 }
             };
             outer(t);
@@ -369,11 +371,11 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
             volume[into] += tet_volume[u];
         };
         join(t, best[0]);
-        for (size_t k = 1; k < best.size(); ++k)
-            if (best[k] >= 0) {
-                const std::vector<int32_t> other = members[best[k]];
+        for (size_t i = 1; i < best.size(); ++i)
+            if (best[i] >= 0) {
+                const std::vector<int32_t> other = members[best[i]];
                 for (const int32_t u : other) join(u, best[0]);
-                grew[best[k]] = 1;
+                grew[best[i]] = 1;
             }
         grew[best[0]] = 1;
         ++joined;

@@ -64,7 +64,7 @@ struct PoorTetBounds {
     double min_aspect_ratio = 0.1; // tet_aspect_ratio (quality.h)
     double min_dihedral_deg = 10;
     double max_non_orthogonality_deg = 68;
-    int32_t max_cell_tets = 6; // no cell grows beyond this many tets
+    int32_t max_cell_tets = 7; // no cell grows beyond this many tets (7: a sliver and two prisms)
 };
 
 // Joins each poor tet cell (worst dihedral angle first) to the neighbouring

@@ -23,6 +23,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <limits>
 #include <chrono>
 #include <cmath>
 #include <numeric>
@@ -459,7 +460,7 @@ void build_stacked_mesh(const SurfaceMesh& surface, const FeatureSize& sizing, c
     // (wall node to top) over the height Algorithm 4 gave it.
     double height_sum = 0;
     result.stack_whole_columns = 0;
-    result.stack_height_min = 1;
+    result.stack_height_min = std::numeric_limits<double>::infinity();
     for (const OffsetPoint& p : raw) {
         const int32_t v = p.generator;
         if (p.filler || p.layer != L || L == 0 || !result.layers.eligible[v] || stack.first[v] < 0) continue;
@@ -470,8 +471,8 @@ void build_stacked_mesh(const SurfaceMesh& surface, const FeatureSize& sizing, c
         height_sum += h;
         result.stack_height_min = std::min(result.stack_height_min, h);
     }
-    result.stack_height_mean = result.stack_whole_columns ? height_sum / double(result.stack_whole_columns) : 1.0;
-    if (result.stack_whole_columns == 0) result.stack_height_min = 1;
+    result.stack_height_mean = result.stack_whole_columns ? height_sum / double(result.stack_whole_columns) : 0.0;
+    if (result.stack_whole_columns == 0) result.stack_height_min = 0;
     result.seconds_quality += seconds_since(t0);
 }
 

@@ -91,8 +91,9 @@ struct VolumeResult {
     int64_t stack_holes = 0;            // left without layers (LayerStack)
     int64_t stack_whole_columns = 0;    // LayerMode::prisms: wall nodes owed all layers (LayerAccount::eligible)
                                         // whose column holds them all, as prism layers
-    double stack_height_mean = 1;       // and those columns' height over the height Algorithm 4 gave them:
-    double stack_height_min = 1;        // mean and smallest (below 1 where a column was shortened)
+    double stack_height_mean = 0;       // and those columns' height over the height Algorithm 4 gave them:
+    double stack_height_min = 0;        // mean and smallest (below 1 where a column was shortened; 0 with
+                                        // no column)
     int64_t filtered_points = 0; // removed by the interior-point filter
     int64_t inserted_points = 0; // interior points in the triangulation after insertion
     int64_t rejected_small = 0;  // final rejections for (i), tiny tets

@@ -392,12 +392,13 @@ TEST(LayerPrisms, ASliverOnTwoPrismsJoinsBothWhereNeitherAloneSeesIt)
     // Within six tets neither prism may take it (its face on the other
     // prism would face away from the union's centre), nor both.
     LayerPrismCells six = found;
-    EXPECT_EQ(absorb_poor_tets(s.mesh, adjacency, six, PoorTetBounds{}), 0);
+    EXPECT_EQ(absorb_poor_tets(s.mesh, adjacency, six, PoorTetBounds{.max_cell_tets = 6}), 0);
     EXPECT_EQ(six.cells, 3);
 
+    // Within seven (the default), both together.
     LayerPrismCells seven = found;
     std::vector<TetUnion> chosen;
-    EXPECT_EQ(absorb_poor_tets(s.mesh, adjacency, seven, PoorTetBounds{.max_cell_tets = 7}, {}, &chosen), 1);
+    EXPECT_EQ(absorb_poor_tets(s.mesh, adjacency, seven, PoorTetBounds{}, {}, &chosen), 1);
     EXPECT_EQ(seven.cells, 1);
     EXPECT_EQ(seven.prisms, 0);
     EXPECT_EQ(seven.absorbed, 1);
