@@ -274,7 +274,8 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
     std::vector<char> was_prism(members.size(), 0), grew(members.size(), 0);
     for (size_t c = 0; c < members.size() && c < cells.prism_cell.size(); ++c) was_prism[c] = cells.prism_cell[c];
     int64_t joined = 0;
-    for (const auto& [dihedral, t] : poor) {
+    for (const auto& worst_first : poor) {
+        const int32_t t = worst_first.second; // a variable, not a binding: the lambdas below capture it
         if (members[cell[t]].size() != 1) continue; // another tet joined it meanwhile
         // The cells across its faces, and the union of the tet with one of
         // them or with two: a flat tet's two faces on one side may lie on
