@@ -8,7 +8,6 @@
 #include <itkMetaImageIO.h>
 #include <itkNiftiImageIO.h>
 #include <itkNrrdImageIO.h>
-#include <nifti1_io.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
@@ -28,6 +27,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <string>
@@ -465,9 +465,11 @@ itk::ImageIOBase::Pointer make_io(Format format)
     return nullptr;
 }
 
-// ITK's NIfTI reader keeps a static string in ReadImageInformation and the
-// NIfTI library a global debug level, and std::cerr is swapped while reading:
-// one read at a time.
+// ITK's NIfTI reader keeps a static string in ReadImageInformation, and
+// std::cerr is swapped while MetaIO reads: one read at a time. ITK's NIfTI
+// reader sets nifti1_io's process-wide debug level to 0 itself, and
+// nifti1_io has no way to read a level back, so it cannot be restored
+// (include/scalemesh/mesh.h says so).
 std::mutex g_itk_mutex;
 
 void read_header(itk::ImageIOBase& io, const std::string& name, Format format, RawImage& image)
@@ -619,13 +621,15 @@ void read_voxels(itk::ImageIOBase& io, RawImage& image, const std::string& name)
 
 RawImage read_with_itk(const std::filesystem::path& path, Format format, int64_t max_bytes)
 {
-    static std::once_flag quiet_nifti;
     std::lock_guard<std::mutex> lock(g_itk_mutex);
-    std::call_once(quiet_nifti, [] { nifti_set_debug_level(0); });
     const std::string name = path.string();
     const std::string as = std::string(" could not be read as ") + format_name(format) + ": ";
     const std::string hint = "the file may be truncated or corrupt; re-export it";
-    CerrCapture captured;
+    // Only MetaIO reports on std::cerr what it does not throw; the other
+    // formats' readers leave the host's std::cerr alone.
+    std::optional<CerrCapture> captured;
+    if (format == Format::MetaImage) captured.emplace();
+    const auto said = [&] { return captured ? captured->text() : std::string(); };
     RawImage image;
     try {
         itk::ImageIOBase::Pointer io = make_io(format);
@@ -633,18 +637,17 @@ RawImage read_with_itk(const std::filesystem::path& path, Format format, int64_t
         require_image_memory(name, static_cast<double>(image.voxels()), static_cast<int>(io->GetComponentSize()),
                              max_bytes);
         check_data_size(*io, image, path);
-        const size_t said_before = captured.text().size();
+        const size_t said_before = said().size();
         read_voxels(*io, image, name);
         // MetaIO reports some failures only on std::cerr ("data not read
         // completely" for compressed data cut short) and still returns success.
-        if (format == Format::MetaImage && captured.text().size() > said_before)
-            throw InputError(name + as + one_line(captured.text().substr(said_before)), hint);
+        if (said().size() > said_before) throw InputError(name + as + one_line(said().substr(said_before)), hint);
     } catch (const Error&) {
         throw;
     } catch (const itk::ExceptionObject& e) {
         std::string reason = one_line(e.GetDescription());
-        const std::string said = one_line(captured.text(), 160);
-        if (!said.empty()) reason += " (" + said + ")";
+        const std::string also = one_line(said(), 160);
+        if (!also.empty()) reason += " (" + also + ")";
         throw InputError(name + as + reason, hint);
     } catch (const std::bad_alloc&) {
         throw InputError(name + " needs more memory than is available for its " + std::to_string(image.voxels()) +

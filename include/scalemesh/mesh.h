@@ -4,7 +4,9 @@
 // gmsh::model::mesh::getNodes and getElements, of NumPy and of libigl's V, F,
 // T). The stages, parameters and guarantees are those of `scalemesh run`
 // (docs/method.md, docs/case-file.md); the library never prints, never exits
-// and changes no process-wide setting (threads run in a TBB arena of its own).
+// and changes no process-wide setting (threads run in a TBB arena of its own;
+// numbers are read the same under any LC_NUMERIC), but for the few on the
+// image path that mesh_image lists.
 //
 // Errors are the exceptions of <scalemesh/errors.h>, all derived from
 // std::runtime_error: InputError (bad input or options; the message says what
@@ -147,14 +149,17 @@ MeshResult mesh_surface(const SurfaceInput& surface, const MeshOptions& options 
 // surface file (.stl, .ply, .obj, .vtp, .msh; closed or open-ended, with face
 // labels), as `scalemesh run` does a case with `file = path`. Throws IoError
 // for a file that cannot be read, InputError and StageError as mesh_surface.
-// Two process-wide effects remain on this path: a .msh file is read through
+// Three process-wide effects remain on this path: a .msh file is read through
 // a Gmsh session of the library's own (gmsh::initialize and finalize), so do
 // not call it on a .msh while the host has Gmsh initialised (use
 // mesh_gmsh_model, gmsh_model.h, on a model the host merged instead; the
 // same holds for both functions with layers = "prisms", whose core Gmsh
 // meshes); and a
 // MetaImage read swaps std::cerr's buffer while ITK's MetaIO reads (it
-// reports truncated compressed data only there), under the importers' lock.
+// reports truncated compressed data only there), under the importers' lock
+// (a NIfTI or NRRD read leaves std::cerr alone); and a NIfTI read leaves
+// nifti1_io's debug level at 0, as ITK's NIfTI reader sets it (nifti1_io
+// has no way to read a level back, so it cannot be restored).
 MeshResult mesh_image(const std::filesystem::path& path, const MeshOptions& options = {},
                       const ImageOptions& image = {});
 

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <sys/resource.h>
@@ -44,13 +45,15 @@ int64_t parse_memory_size(const std::string& text, const std::string& what)
         return InputError(what + " '" + text + "' is not a memory size",
                           "give bytes with an optional unit K, M, G or T (powers of 1024), e.g. 8G or 512M");
     };
-    size_t used = 0;
+    // std::from_chars reads the number as written in C, whatever the
+    // host's LC_NUMERIC (std::stod would take "1,5" in a German locale and
+    // stop at "1.5"'s point).
+    size_t used = text.find_first_not_of(" \t");
+    if (used == std::string::npos) throw refuse();
     double value = 0;
-    try {
-        value = std::stod(text, &used);
-    } catch (const std::exception&) {
-        throw refuse();
-    }
+    const auto [end, error] = std::from_chars(text.data() + used, text.data() + text.size(), value);
+    if (error != std::errc()) throw refuse();
+    used = static_cast<size_t>(end - text.data());
     std::string unit;
     for (size_t i = used; i < text.size(); ++i)
         if (!std::isspace(static_cast<unsigned char>(text[i]))) unit += static_cast<char>(std::toupper(text[i]));

@@ -12,6 +12,8 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdlib>
 #include <functional>
@@ -33,12 +35,16 @@ MeshLength length_option(const char* key, const py::handle& value)
 {
     if (py::isinstance<py::str>(value)) {
         const std::string text = value.cast<std::string>();
-        char* end = nullptr;
-        const double v = std::strtod(text.c_str(), &end);
-        std::string unit(end);
-        unit.erase(0, unit.find_first_not_of(' '));
-        if (end != text.c_str() && (unit == "mm" || unit.empty())) return MeshLength::mm(v);
-        if (end != text.c_str() && (unit == "voxels" || unit == "voxel")) return MeshLength::in_voxels(v);
+        // std::from_chars: the number as written in Python, whatever the
+        // process's LC_NUMERIC (std::strtod follows it).
+        const char* begin = text.c_str() + std::min(text.find_first_not_of(' '), text.size());
+        double v = 0;
+        const auto [end, error] = std::from_chars(begin, text.c_str() + text.size(), v);
+        const bool number = error == std::errc();
+        std::string unit(number ? end : begin);
+        unit.erase(0, std::min(unit.find_first_not_of(' '), unit.size()));
+        if (number && (unit == "mm" || unit.empty())) return MeshLength::mm(v);
+        if (number && (unit == "voxels" || unit == "voxel")) return MeshLength::in_voxels(v);
         throw py::value_error(std::string("option ") + key + " = '" + text +
                               "' is not a length. Hint: give a number (mm) or a string such as \"2 mm\" or "
                               "\"0.5 voxels\"");

@@ -8,6 +8,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include <clocale>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
 namespace scalemesh {
 namespace {
 
@@ -17,6 +22,28 @@ void write_plate(const TempDir& dir)
 {
     write_label_mha(dir.path / "image.mha", {1, 32, 32}, 0.5, [](int, int, int) { return true; });
     write_case(dir.path, "[input]\nfile = \"image.mha\"\n");
+}
+
+// The host's LC_NUMERIC does not change how a size reads. Under a locale
+// whose decimal separator is a comma (compiled here from glibc's de_DE
+// source, which the locales package ships), "1.5 GiB" is still 1.5 GiB,
+// and "1,5G" is no size.
+TEST(MemoryLimit, SizesParseAlikeUnderACommaLocale)
+{
+    const TempDir dir;
+    const std::filesystem::path locale = dir.path / "de_DE.UTF-8";
+    const std::string compile = "localedef -c -i de_DE -f UTF-8 " + locale.string() + " >/dev/null 2>&1";
+    (void)std::system(compile.c_str()); // -c: written despite warnings, which set the exit code
+    ASSERT_TRUE(std::filesystem::exists(locale / "LC_NUMERIC"))
+        << "localedef could not compile de_DE (setup.sh installs the locales package)";
+    const std::string previous = std::setlocale(LC_NUMERIC, nullptr);
+    ::setenv("LOCPATH", dir.path.c_str(), 1);
+    ASSERT_NE(std::setlocale(LC_NUMERIC, "de_DE.UTF-8"), nullptr);
+    EXPECT_EQ(std::string(std::localeconv()->decimal_point), ","); // the locale is in effect
+    EXPECT_EQ(parse_memory_size("1.5 GiB", "--max-memory"), 3LL << 29);
+    EXPECT_THROW(parse_memory_size("1,5G", "--max-memory"), InputError);
+    std::setlocale(LC_NUMERIC, previous.c_str());
+    ::unsetenv("LOCPATH");
 }
 
 TEST(MemoryLimit, SizesParse)
