@@ -22,6 +22,7 @@ packages=(
   openfoam python3
   pybind11-dev python3-dev python3-gmsh python3-numpy
   gmsh
+  locales
 )
 missing=()
 for p in "${packages[@]}"; do
@@ -99,6 +100,10 @@ case "${1:-run}" in
     done
     /usr/bin/python3 validation/tube_validation.py --scalemesh "$build/src/cli/scalemesh"
     /usr/bin/python3 validation/curved_validation.py --scalemesh "$build/src/cli/scalemesh" --jobs 2
+    # Issue 41, first step: the stepped tube (8, 4, 2, 1 mm in series) at
+    # M = 5, 7, 10, with an isotropic Gmsh peer at 0.8 and 0.5 mm (about 4
+    # minutes); prints its table, results in build/multiscale/results.json.
+    /usr/bin/python3 validation/multiscale_validation.py --scalemesh "$build/src/cli/scalemesh" --gmsh-h 0.8 0.5
     ;;
   *)
     echo "usage: bash setup.sh [run|test|bench|validate]" >&2
