@@ -3,15 +3,19 @@
 #include "core/vec3.h"
 #include "volume/quality.h"
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <numeric>
 #include <optional>
+#include <span>
 #include <stdexcept>
 #include <string>
+#include <unordered_map>
 
 namespace scalemesh {
 
@@ -218,32 +222,88 @@ LayerPrismCells layer_prism_cells(const TetMesh& mesh, const TetFaceAdjacency& a
     return out;
 }
 
+namespace {
+
+// Each cell's tets: the cells as given in one flat array (cell by cell), and
+// beside it the few cells that joins have changed. Memory: a tet index per
+// tet and an offset per cell, where a vector per cell would cost an
+// allocation each at tens of millions of cells.
+class CellMembers {
+public:
+    CellMembers(const std::vector<int32_t>& cell_of_tet, int32_t cells)
+        : start_(static_cast<size_t>(cells) + 1, 0), tets_(cell_of_tet.size())
+    {
+        for (const int32_t c : cell_of_tet) ++start_[static_cast<size_t>(c) + 1];
+        std::partial_sum(start_.begin(), start_.end(), start_.begin());
+        std::vector<int64_t> next(start_.begin(), start_.end() - 1);
+        for (size_t t = 0; t < cell_of_tet.size(); ++t) tets_[next[cell_of_tet[t]]++] = static_cast<int32_t>(t);
+    }
+    std::span<const int32_t> of(int32_t c) const
+    {
+        if (const auto changed = changed_.find(c); changed != changed_.end()) return changed->second;
+        return {tets_.data() + start_[c], static_cast<size_t>(start_[c + 1] - start_[c])};
+    }
+    int32_t lowest(int32_t c) const
+    {
+        const std::span<const int32_t> tets = of(c);
+        return *std::min_element(tets.begin(), tets.end());
+    }
+    void move(int32_t tet, int32_t from, int32_t into)
+    {
+        std::vector<int32_t>& source = changed(from);
+        source.erase(std::find(source.begin(), source.end(), tet));
+        changed(into).push_back(tet);
+    }
+
+private:
+    std::vector<int32_t>& changed(int32_t c)
+    {
+        const auto [it, added] = changed_.try_emplace(c);
+        if (added) it->second.assign(tets_.begin() + start_[c], tets_.begin() + start_[c + 1]);
+        return it->second;
+    }
+    std::vector<int64_t> start_;
+    std::vector<int32_t> tets_;
+    std::unordered_map<int32_t, std::vector<int32_t>> changed_;
+};
+
+} // namespace
+
 int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency, LayerPrismCells& cells,
-                         const PoorTetBounds& bounds, const std::vector<std::vector<TetUnion>>& refused,
-                         std::vector<TetUnion>* chosen)
+                         const PoorTetBounds& bounds, const RefusedUnions& refused, ChosenUnions* chosen)
 {
     const size_t tets = mesh.tets.size();
-    if (cells.cell_of_tet.size() != tets || (!refused.empty() && refused.size() != tets) ||
-        adjacency.across.size() != 4 * tets)
-        throw std::invalid_argument("absorb_poor_tets: the cells, `refused` or the adjacency are not of this mesh");
-    if (chosen) chosen->assign(tets, TetUnion{-1, -1, -1});
+    if (cells.cell_of_tet.size() != tets || adjacency.across.size() != 4 * tets)
+        throw std::invalid_argument("absorb_poor_tets: the cells or the adjacency are not of this mesh");
+    if (chosen) chosen->clear();
     std::vector<int32_t>& cell = cells.cell_of_tet;
-    // Each cell's tets, and the volume-weighted sum of their centroids.
-    std::vector<std::vector<int32_t>> members(static_cast<size_t>(cells.cells));
-    std::vector<Vec3> moment(members.size());
-    std::vector<double> volume(members.size(), 0.0);
-    std::vector<Vec3> centroid(tets);
-    std::vector<double> tet_volume(tets);
-    for (size_t t = 0; t < tets; ++t) {
+    CellMembers members(cell, cells.cells);
+    // A tet's centroid and volume, and a cell's centre (the volume-weighted
+    // mean of its tets' centroids), computed where needed: a cell holds
+    // seven tets at most.
+    const auto centroid = [&](int32_t t) {
         const Tet& x = mesh.tets[t];
-        const Vec3 &a = mesh.points[x[0]], &b = mesh.points[x[1]], &c = mesh.points[x[2]], &d = mesh.points[x[3]];
-        centroid[t] = (a + b + c + d) / 4;
-        tet_volume[t] = tet_volume6(a, b, c, d) / 6;
-        members[cell[t]].push_back(static_cast<int32_t>(t));
-        moment[cell[t]] += tet_volume[t] * centroid[t];
-        volume[cell[t]] += tet_volume[t];
-    }
-    const auto centre = [&](int32_t c) { return moment[c] / volume[c]; };
+        return (mesh.points[x[0]] + mesh.points[x[1]] + mesh.points[x[2]] + mesh.points[x[3]]) / 4;
+    };
+    const auto tet_volume = [&](int32_t t) {
+        const Tet& x = mesh.tets[t];
+        return tet_volume6(mesh.points[x[0]], mesh.points[x[1]], mesh.points[x[2]], mesh.points[x[3]]) / 6;
+    };
+    // The volume-weighted sum of the centroids of a set of tets, and its volume.
+    struct Moment {
+        Vec3 sum{};
+        double volume = 0;
+        void add(const Vec3& centroid, double v) { sum += v * centroid, volume += v; }
+    };
+    const auto moment_of = [&](int32_t c) {
+        Moment m;
+        for (const int32_t t : members.of(c)) m.add(centroid(t), tet_volume(t));
+        return m;
+    };
+    const auto centre = [&](int32_t c) {
+        const Moment m = moment_of(c);
+        return m.sum / m.volume;
+    };
     const double min_cosine = std::cos(bounds.max_non_orthogonality_deg * 3.14159265358979323846 / 180);
     const double min_sine = std::sin(kStarAngleDeg * 3.14159265358979323846 / 180);
     // The cosine of face k of tet t against the join from `from` to the
@@ -255,28 +315,40 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
         return dot(n, d) / (norm(n) * norm(d));
     };
 
-    // The poor tet cells, worst dihedral angle first.
+    // The poor tet cells, worst dihedral angle first; the tets looked at in
+    // parallel, as marks a sequential loop then collects.
+    std::vector<char> is_poor(tets, 0);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, tets, 1 << 14), [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t i = range.begin(); i != range.end(); ++i) {
+            const auto t = static_cast<int32_t>(i);
+            if (members.of(cell[t]).size() != 1) continue;
+            const Tet& x = mesh.tets[t];
+            const Vec3 &a = mesh.points[x[0]], &b = mesh.points[x[1]], &c = mesh.points[x[2]], &d = mesh.points[x[3]];
+            bool bad = tet_min_dihedral_deg(a, b, c, d) < bounds.min_dihedral_deg ||
+                       tet_aspect_ratio(a, b, c, d) < bounds.min_aspect_ratio;
+            for (int k = 0; k < 4 && !bad; ++k)
+                if (adjacency.across[4 * t + k] >= 0 && !(face_cosine(t, k, centroid(t)) > min_cosine)) bad = true;
+            is_poor[i] = bad;
+        }
+    });
     std::vector<std::pair<double, int32_t>> poor;
-    for (size_t t = 0; t < tets; ++t) {
-        if (members[cell[t]].size() != 1) continue;
-        const Tet& x = mesh.tets[t];
-        const double dihedral =
-            tet_min_dihedral_deg(mesh.points[x[0]], mesh.points[x[1]], mesh.points[x[2]], mesh.points[x[3]]);
-        bool bad = dihedral < bounds.min_dihedral_deg ||
-                   tet_aspect_ratio(mesh.points[x[0]], mesh.points[x[1]], mesh.points[x[2]], mesh.points[x[3]]) <
-                       bounds.min_aspect_ratio;
-        for (int k = 0; k < 4 && !bad; ++k)
-            if (adjacency.across[4 * t + k] >= 0 && !(face_cosine(int32_t(t), k, centroid[t]) > min_cosine)) bad = true;
-        if (bad) poor.emplace_back(dihedral, static_cast<int32_t>(t));
-    }
+    for (size_t i = 0; i < tets; ++i)
+        if (is_poor[i]) {
+            const Tet& x = mesh.tets[i];
+            poor.emplace_back(
+                tet_min_dihedral_deg(mesh.points[x[0]], mesh.points[x[1]], mesh.points[x[2]], mesh.points[x[3]]),
+                static_cast<int32_t>(i));
+        }
+    std::vector<char>().swap(is_poor);
     std::sort(poor.begin(), poor.end());
 
-    std::vector<char> was_prism(members.size(), 0), grew(members.size(), 0);
-    for (size_t c = 0; c < members.size() && c < cells.prism_cell.size(); ++c) was_prism[c] = cells.prism_cell[c];
+    const size_t cell_count = static_cast<size_t>(cells.cells);
+    std::vector<char> was_prism(cell_count, 0), grew(cell_count, 0);
+    for (size_t c = 0; c < cell_count && c < cells.prism_cell.size(); ++c) was_prism[c] = cells.prism_cell[c];
     int64_t joined = 0;
     for (const auto& worst_first : poor) {
         const int32_t t = worst_first.second; // a variable, not a binding: the lambdas below capture it
-        if (members[cell[t]].size() != 1) continue; // another tet joined it meanwhile
+        if (members.of(cell[t]).size() != 1) continue; // another tet joined it meanwhile
         // The cells across its faces, and the union of the tet with one of
         // them or with two: a flat tet's two faces on one side may lie on
         // two cells, and only their union sees its other faces from inside.
@@ -286,34 +358,38 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
                                                                std::find(across_cells.begin(), across_cells.end(),
                                                                          cell[a]) == across_cells.end())
                 across_cells.push_back(cell[a]);
-        const auto lowest = [&](int32_t c) {
-            return c < 0 ? -1 : *std::min_element(members[c].begin(), members[c].end());
-        };
         // A union's name: the lowest tet of each of its cells, ascending, -1
         // after them.
         const auto name = [&](const TetUnion& cells_joined) {
             TetUnion u{-1, -1, -1};
             size_t k = 0;
             for (const int32_t c : cells_joined)
-                if (c >= 0) u[k++] = lowest(c);
+                if (c >= 0) u[k++] = members.lowest(c);
             for (size_t a = 0; a + 1 < k; ++a) // at most three: a bubble sort
                 for (size_t b = 0; b + 1 < k - a; ++b)
                     if (u[b] > u[b + 1]) std::swap(u[b], u[b + 1]);
             return u;
         };
+        const auto refused_here = refused.find(t);
         TetUnion best{-1, -1, -1};
         double best_cosine = min_cosine;
         const auto consider = [&](const TetUnion& with) {
             const auto inside = [&](int32_t c) { return c >= 0 && std::find(with.begin(), with.end(), c) != with.end(); };
             size_t size = 1;
-            Vec3 m = tet_volume[t] * centroid[t];
-            double v = tet_volume[t];
+            Moment m;
+            m.add(centroid(t), tet_volume(t));
             for (const int32_t c : with)
-                if (c >= 0) size += members[c].size(), m += moment[c], v += volume[c];
+                if (c >= 0) {
+                    size += members.of(c).size();
+                    const Moment more = moment_of(c);
+                    m.sum += more.sum, m.volume += more.volume;
+                }
             if (static_cast<int32_t>(size) > bounds.max_cell_tets) return;
-            if (!refused.empty() && std::find(refused[t].begin(), refused[t].end(), name(with)) != refused[t].end())
-                return;
-            const Vec3 joint = m / v;
+            if (refused_here != refused.end()) {
+                const std::vector<TetUnion>& no = refused_here->second;
+                if (std::find(no.begin(), no.end(), name(with)) != no.end()) return;
+            }
+            const Vec3 joint = m.sum / m.volume;
             // The union's outer faces: star-shaped from `joint`, and their
             // worst cosine to the cells across.
             double worst = 1;
@@ -335,7 +411,7 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
             outer(t);
             for (const int32_t c : with)
                 if (c >= 0)
-                    for (const int32_t u : members[c]) outer(u);
+                    for (const int32_t u : members.of(c)) outer(u);
             if (!star || !(worst > best_cosine)) return;
             // A point all of whose tets the union holds would lie inside the
             // cell, on no face: OpenFOAM fails a mesh with an unused point.
@@ -358,23 +434,18 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
             // unrefused: if the cell fails, this union is the one undone.
             for (const int32_t c : best)
                 if (c >= 0)
-                    for (const int32_t u : members[c]) (*chosen)[u] = TetUnion{-1, -1, -1};
+                    for (const int32_t u : members.of(c)) chosen->erase(u);
             (*chosen)[t] = name(best);
         }
         const auto join = [&](int32_t u, int32_t into) {
-            const int32_t from = cell[u];
-            moment[from] -= tet_volume[u] * centroid[u];
-            volume[from] -= tet_volume[u];
-            members[from].erase(std::find(members[from].begin(), members[from].end(), u));
+            members.move(u, cell[u], into);
             cell[u] = into;
-            members[into].push_back(u);
-            moment[into] += tet_volume[u] * centroid[u];
-            volume[into] += tet_volume[u];
         };
         join(t, best[0]);
         for (size_t i = 1; i < best.size(); ++i)
             if (best[i] >= 0) {
-                const std::vector<int32_t> other = members[best[i]];
+                const std::span<const int32_t> of = members.of(best[i]);
+                const std::vector<int32_t> other(of.begin(), of.end());
                 for (const int32_t u : other) join(u, best[0]);
                 grew[best[i]] = 1;
             }
@@ -382,9 +453,9 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
         ++joined;
     }
     if (joined == 0) return 0;
-    for (size_t c = 0; c < members.size(); ++c) cells.prisms -= was_prism[c] && grew[c];
+    for (size_t c = 0; c < cell_count; ++c) cells.prisms -= was_prism[c] && grew[c];
     // Cells numbered in the order of their first tet again.
-    std::vector<int32_t> number(members.size(), -1);
+    std::vector<int32_t> number(cell_count, -1);
     cells.cells = 0;
     cells.prism_cell.clear();
     for (size_t t = 0; t < tets; ++t) {
@@ -415,8 +486,8 @@ LayerPrismCells checked_layer_prism_cells(const TetMesh& mesh, const TetFaceAdja
 {
     const size_t tets = mesh.tets.size();
     std::vector<char> apart(tets, 0);
-    std::vector<std::vector<TetUnion>> refused(absorb ? tets : 0);
-    std::vector<TetUnion> chosen;
+    RefusedUnions refused;
+    ChosenUnions chosen;
     for (;;) {
         LayerPrismCells cells = layer_prism_cells(mesh, adjacency, point_generator, point_layer, point_filler,
                                                   max_non_orthogonality_deg, &apart);
@@ -431,8 +502,8 @@ LayerPrismCells checked_layer_prism_cells(const TetMesh& mesh, const TetFaceAdja
         // a round that undoes none: a prism named next to a failing union
         // may pass once the union is gone.
         bool refusing = false;
-        for (size_t t = 0; t < tets && absorb; ++t)
-            if (undo[cells.cell_of_tet[t]] && chosen[t][0] >= 0) refused[t].push_back(chosen[t]), refusing = true;
+        for (const auto& [t, joined] : chosen)
+            if (undo[cells.cell_of_tet[t]]) refused[t].push_back(joined), refusing = true;
         bool splitting = false;
         for (size_t t = 0; t < tets && !refusing; ++t)
             if (undo[cells.cell_of_tet[t]] && !apart[t]) apart[t] = 1, splitting = true;

@@ -7,6 +7,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <unordered_map>
 #include <vector>
 
 namespace scalemesh {
@@ -81,14 +82,19 @@ struct PoorTetBounds {
 // (a prism that took a tet is none). Returns the tets joined.
 //
 // A union is named by the lowest tet of each cell joined, ascending, -1
-// after them. `refused` (one list per tet, or empty) names unions not to
-// make again; `chosen` (if given) receives the union each tet joined,
-// {-1, -1, -1} for the others and for a tet whose cell a later union took in
-// (that later union is the one to refuse if the cell fails).
+// after them. `refused` names, per poor tet, the unions not to make again;
+// `chosen` (if given) receives the union each tet joined, keyed by the tet,
+// but for a tet whose cell a later union took in (that later union is the
+// one to refuse if the cell fails). Both hold the poor tets only; the
+// call's own bookkeeping is a tet index per tet and an offset per cell
+// besides, so that it stays small beside the mesh at tens of millions of
+// tets.
 using TetUnion = std::array<int32_t, 3>;
+using RefusedUnions = std::unordered_map<int32_t, std::vector<TetUnion>>;
+using ChosenUnions = std::unordered_map<int32_t, TetUnion>;
 int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency, LayerPrismCells& cells,
-                         const PoorTetBounds& bounds, const std::vector<std::vector<TetUnion>>& refused = {},
-                         std::vector<TetUnion>* chosen = nullptr);
+                         const PoorTetBounds& bounds, const RefusedUnions& refused = {},
+                         ChosenUnions* chosen = nullptr);
 
 // How far inside a cell its centre must be seen from each of its faces
 // (degrees) for the cell to be star-shaped enough for OpenFOAM's face

@@ -328,15 +328,14 @@ TEST(LayerPrisms, ASliverOnAPrismJoinsItAsOnePolyhedron)
     ASSERT_EQ(found.cells, 3);
 
     LayerPrismCells cells = found;
-    std::vector<TetUnion> chosen;
+    ChosenUnions chosen;
     EXPECT_EQ(absorb_poor_tets(s.mesh, adjacency, cells, PoorTetBounds{}, {}, &chosen), 1);
     EXPECT_EQ(cells.cells, 2);
     EXPECT_EQ(cells.absorbed, 1);
     EXPECT_EQ(cells.prisms, 1); // the prism that took the sliver is a polyhedron now
     EXPECT_EQ(cells.cell_of_tet, (std::vector<int32_t>{0, 0, 0, 1, 1, 1, 0}));
     EXPECT_EQ(cells.prism_cell, (std::vector<char>{0, 1}));
-    EXPECT_EQ(chosen[6], (TetUnion{0, -1, -1}));
-    for (size_t t = 0; t < 6; ++t) EXPECT_EQ(chosen[t], (TetUnion{-1, -1, -1}));
+    EXPECT_EQ(chosen, (ChosenUnions{{6, TetUnion{0, -1, -1}}})); // the sliver's union, and no other
 
     const TempDir dir;
     const PolyMeshCounts counts = write_polymesh(
@@ -353,8 +352,7 @@ TEST(LayerPrisms, ASliverOnAPrismJoinsItAsOnePolyhedron)
     // A union refused before is not made again, and none grows beyond
     // max_cell_tets: the sliver stays a cell of its own.
     LayerPrismCells again = found;
-    std::vector<std::vector<TetUnion>> refused(s.mesh.tets.size());
-    refused[6].push_back({0, -1, -1});
+    const RefusedUnions refused{{6, {TetUnion{0, -1, -1}}}};
     EXPECT_EQ(absorb_poor_tets(s.mesh, adjacency, again, PoorTetBounds{}, refused), 0);
     EXPECT_EQ(again.cells, 3);
     EXPECT_EQ(again.prisms, 2);
@@ -397,13 +395,13 @@ TEST(LayerPrisms, ASliverOnTwoPrismsJoinsBothWhereNeitherAloneSeesIt)
 
     // Within seven (the default), both together.
     LayerPrismCells seven = found;
-    std::vector<TetUnion> chosen;
+    ChosenUnions chosen;
     EXPECT_EQ(absorb_poor_tets(s.mesh, adjacency, seven, PoorTetBounds{}, {}, &chosen), 1);
     EXPECT_EQ(seven.cells, 1);
     EXPECT_EQ(seven.prisms, 0);
     EXPECT_EQ(seven.absorbed, 1);
     EXPECT_EQ(seven.cell_of_tet, std::vector<int32_t>(7, 0));
-    EXPECT_EQ(chosen[6], (TetUnion{0, 3, -1})); // the lowest tet of each prism, ascending
+    EXPECT_EQ(chosen, (ChosenUnions{{6, TetUnion{0, 3, -1}}})); // the lowest tet of each prism, ascending
 }
 
 // A tet split at a point P just inside its face (1, 2, 3): tet (P, 1, 2, 3)
