@@ -83,21 +83,30 @@ std::vector<std::array<int32_t, 3>> three_tet_groups(const TetMesh& mesh, const 
     return groups;
 }
 
+// The volume-weighted sum of the centroids of a set of tets, and their
+// volume: a cell's centre, as OpenFOAM's is near it.
+struct Moment {
+    Vec3 sum{};
+    double volume = 0;
+    void add(const TetMesh& mesh, int32_t t)
+    {
+        const Tet& x = mesh.tets[t];
+        const Vec3 &a = mesh.points[x[0]], &b = mesh.points[x[1]], &c = mesh.points[x[2]], &d = mesh.points[x[3]];
+        const double v = tet_volume6(a, b, c, d) / 6;
+        sum += v * (a + b + c + d) / 4, volume += v;
+    }
+    void add(const Moment& other) { sum += other.sum, volume += other.volume; }
+    Vec3 centre() const { return sum / volume; }
+};
+
 // The volume-weighted centroid of tets `group`, or nothing if their volume
 // is not positive.
 std::optional<Vec3> group_centroid(const TetMesh& mesh, const std::array<int32_t, 3>& group)
 {
-    Vec3 centroid;
-    double volume = 0;
-    for (int32_t t : group) {
-        const Tet& tet = mesh.tets[t];
-        const Vec3 &a = mesh.points[tet[0]], &b = mesh.points[tet[1]], &c = mesh.points[tet[2]], &d = mesh.points[tet[3]];
-        const double v = tet_volume6(a, b, c, d);
-        centroid += v * (a + b + c + d) / 4;
-        volume += v;
-    }
-    if (!(volume > 0)) return std::nullopt;
-    return centroid / volume;
+    Moment m;
+    for (int32_t t : group) m.add(mesh, t);
+    if (!(m.volume > 0)) return std::nullopt;
+    return m.centre();
 }
 
 // Whether each outer face of tets `group` (a face whose neighbour across,
@@ -278,32 +287,18 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
     if (chosen) chosen->clear();
     std::vector<int32_t>& cell = cells.cell_of_tet;
     CellMembers members(cell, cells.cells);
-    // A tet's centroid and volume, and a cell's centre (the volume-weighted
-    // mean of its tets' centroids), computed where needed: a cell holds
-    // seven tets at most.
+    // A tet's centroid, and a cell's moment and centre, computed where
+    // needed: a cell holds seven tets at most.
     const auto centroid = [&](int32_t t) {
         const Tet& x = mesh.tets[t];
         return (mesh.points[x[0]] + mesh.points[x[1]] + mesh.points[x[2]] + mesh.points[x[3]]) / 4;
     };
-    const auto tet_volume = [&](int32_t t) {
-        const Tet& x = mesh.tets[t];
-        return tet_volume6(mesh.points[x[0]], mesh.points[x[1]], mesh.points[x[2]], mesh.points[x[3]]) / 6;
-    };
-    // The volume-weighted sum of the centroids of a set of tets, and its volume.
-    struct Moment {
-        Vec3 sum{};
-        double volume = 0;
-        void add(const Vec3& centroid, double v) { sum += v * centroid, volume += v; }
-    };
     const auto moment_of = [&](int32_t c) {
         Moment m;
-        for (const int32_t t : members.of(c)) m.add(centroid(t), tet_volume(t));
+        for (const int32_t t : members.of(c)) m.add(mesh, t);
         return m;
     };
-    const auto centre = [&](int32_t c) {
-        const Moment m = moment_of(c);
-        return m.sum / m.volume;
-    };
+    const auto centre = [&](int32_t c) { return moment_of(c).centre(); };
     const double min_cosine = std::cos(bounds.max_non_orthogonality_deg * 3.14159265358979323846 / 180);
     const double min_sine = std::sin(kStarAngleDeg * 3.14159265358979323846 / 180);
     // The cosine of face k of tet t against the join from `from` to the
@@ -377,19 +372,15 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
             const auto inside = [&](int32_t c) { return c >= 0 && std::find(with.begin(), with.end(), c) != with.end(); };
             size_t size = 1;
             Moment m;
-            m.add(centroid(t), tet_volume(t));
+            m.add(mesh, t);
             for (const int32_t c : with)
-                if (c >= 0) {
-                    size += members.of(c).size();
-                    const Moment more = moment_of(c);
-                    m.sum += more.sum, m.volume += more.volume;
-                }
+                if (c >= 0) size += members.of(c).size(), m.add(moment_of(c));
             if (static_cast<int32_t>(size) > bounds.max_cell_tets) return;
             if (refused_here != refused.end()) {
                 const std::vector<TetUnion>& no = refused_here->second;
                 if (std::find(no.begin(), no.end(), name(with)) != no.end()) return;
             }
-            const Vec3 joint = m.sum / m.volume;
+            const Vec3 joint = m.centre();
             // The union's outer faces: star-shaped from `joint`, and their
             // worst cosine to the cells across.
             double worst = 1;

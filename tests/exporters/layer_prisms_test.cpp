@@ -32,6 +32,30 @@ struct TwoPrisms {
 
 void set_boundary(TetMesh& mesh);
 
+// Appends tet `t` to `mesh`, its first two points swapped if it is negative.
+void push_oriented(TetMesh& mesh, Tet t)
+{
+    const auto& p = mesh.points;
+    if (tet_volume6(p[t[0]], p[t[1]], p[t[2]], p[t[3]]) < 0) std::swap(t[0], t[1]);
+    mesh.tets.push_back(t);
+}
+
+// The cells written as a polyMesh, which checkMesh must pass (where
+// OpenFOAM is installed) with as many cells: the writer's counts.
+PolyMeshCounts write_and_check(const TetMesh& mesh, const LayerPrismCells& cells)
+{
+    const TempDir dir;
+    const PolyMeshCounts counts = write_polymesh(
+        mesh, dir.path,
+        {.patch_types = {}, .cell_of_tet = &cells.cell_of_tet, .cells = cells.cells, .quad_cells = &cells.prism_cell});
+    if (openfoam_available()) {
+        const CheckMeshFigures check = check_mesh(dir.path);
+        EXPECT_TRUE(check.ok) << check.log;
+        EXPECT_EQ(check.cells, cells.cells);
+    }
+    return counts;
+}
+
 // `points` in place of the square's, if given: the tets are oriented on them.
 TwoPrisms two_prisms(const std::vector<Vec3>& points = {})
 {
@@ -45,11 +69,8 @@ TwoPrisms two_prisms(const std::vector<Vec3>& points = {})
     for (std::array<int32_t, 3> wall : {std::array<int32_t, 3>{0, 1, 2}, {0, 2, 3}}) {
         std::sort(wall.begin(), wall.end());
         const int32_t a = wall[0], b = wall[1], c = wall[2];
-        for (Tet t : {Tet{a, b, c, c + 4}, Tet{a, b, b + 4, c + 4}, Tet{a, a + 4, b + 4, c + 4}}) {
-            const auto& p = s.mesh.points;
-            if (tet_volume6(p[t[0]], p[t[1]], p[t[2]], p[t[3]]) < 0) std::swap(t[0], t[1]);
-            s.mesh.tets.push_back(t);
-        }
+        for (const Tet& t : {Tet{a, b, c, c + 4}, Tet{a, b, b + 4, c + 4}, Tet{a, a + 4, b + 4, c + 4}})
+            push_oriented(s.mesh, t);
     }
     set_boundary(s.mesh);
     return s;
@@ -310,9 +331,7 @@ TwoPrisms prisms_and_sliver()
     const auto& p = s.mesh.points;
     s.mesh.points.push_back((p[4] + p[5] + p[6]) / 3 + Vec3{0, 0, 0.002});
     s.generator.push_back(0), s.layer.push_back(2), s.filler.push_back(1);
-    Tet sliver{4, 5, 6, 8};
-    if (tet_volume6(p[4], p[5], p[6], p[8]) < 0) std::swap(sliver[0], sliver[1]);
-    s.mesh.tets.push_back(sliver);
+    push_oriented(s.mesh, {4, 5, 6, 8});
     set_boundary(s.mesh);
     return s;
 }
@@ -337,17 +356,9 @@ TEST(LayerPrisms, ASliverOnAPrismJoinsItAsOnePolyhedron)
     EXPECT_EQ(cells.prism_cell, (std::vector<char>{0, 1}));
     EXPECT_EQ(chosen, (ChosenUnions{{6, TetUnion{0, -1, -1}}})); // the sliver's union, and no other
 
-    const TempDir dir;
-    const PolyMeshCounts counts = write_polymesh(
-        s.mesh, dir.path,
-        {.patch_types = {}, .cell_of_tet = &cells.cell_of_tet, .cells = cells.cells, .quad_cells = &cells.prism_cell});
+    const PolyMeshCounts counts = write_and_check(s.mesh, cells);
     EXPECT_EQ(counts.cells, 2);
     EXPECT_EQ(counts.quad_faces, 0); // no quad from a prism to a polyhedron
-    if (openfoam_available()) {
-        const CheckMeshFigures check = check_mesh(dir.path);
-        EXPECT_TRUE(check.ok) << check.log;
-        EXPECT_EQ(check.cells, 2);
-    }
 
     // A union refused before is not made again, and none grows beyond
     // max_cell_tets: the sliver stays a cell of its own.
@@ -377,9 +388,7 @@ TEST(LayerPrisms, ASliverOnTwoPrismsJoinsBothWhereNeitherAloneSeesIt)
     TwoPrisms s = two_prisms({{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, z}, {1, 0, z + e}, {1, 1, z},
                               {0, 1, z + e}});
     const auto& p = s.mesh.points;
-    Tet sliver{4, 5, 6, 7};
-    if (tet_volume6(p[4], p[5], p[6], p[7]) < 0) std::swap(sliver[0], sliver[1]);
-    s.mesh.tets.push_back(sliver);
+    push_oriented(s.mesh, {4, 5, 6, 7});
     set_boundary(s.mesh);
     ASSERT_LT(tet_min_dihedral_deg(p[4], p[5], p[6], p[7]), 10.0);
     const TetFaceAdjacency adjacency = tet_face_adjacency(s.mesh);
@@ -412,11 +421,7 @@ TEST(LayerPrisms, NoUnionSwallowsAPoint)
 {
     TetMesh mesh;
     mesh.points = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0.32, 0.32, 0.32}};
-    for (Tet t : {Tet{4, 1, 2, 3}, Tet{0, 4, 2, 3}, Tet{0, 1, 4, 3}, Tet{0, 1, 2, 4}}) {
-        const auto& p = mesh.points;
-        if (tet_volume6(p[t[0]], p[t[1]], p[t[2]], p[t[3]]) < 0) std::swap(t[0], t[1]);
-        mesh.tets.push_back(t);
-    }
+    for (const Tet& t : {Tet{4, 1, 2, 3}, Tet{0, 4, 2, 3}, Tet{0, 1, 4, 3}, Tet{0, 1, 2, 4}}) push_oriented(mesh, t);
     set_boundary(mesh);
     const auto& p = mesh.points;
     ASSERT_LT(tet_min_dihedral_deg(p[4], p[1], p[2], p[3]), 10.0);
@@ -425,15 +430,7 @@ TEST(LayerPrisms, NoUnionSwallowsAPoint)
     cells.prism_cell.assign(4, 0);
     absorb_poor_tets(mesh, adjacency, cells, PoorTetBounds{.max_non_orthogonality_deg = 90});
     EXPECT_GE(cells.cells, 2);
-    const TempDir dir;
-    const PolyMeshCounts counts = write_polymesh(
-        mesh, dir.path,
-        {.patch_types = {}, .cell_of_tet = &cells.cell_of_tet, .cells = cells.cells, .quad_cells = &cells.prism_cell});
-    EXPECT_EQ(counts.cells, cells.cells);
-    if (openfoam_available()) {
-        const CheckMeshFigures check = check_mesh(dir.path);
-        EXPECT_TRUE(check.ok) << check.log;
-    }
+    EXPECT_EQ(write_and_check(mesh, cells).cells, cells.cells);
 }
 
 TEST(LayerPrisms, CheckedCellsGiveAnAbsorbedTetBackWhereTheUnionFails)
