@@ -40,6 +40,7 @@ struct GmshModelResult {
     std::size_t first_node_tag = 0;   // mesh point i is Gmsh node first_node_tag + i
     std::size_t first_tet_tag = 0;    // mesh tet t is Gmsh element first_tet_tag + t
     std::vector<int> views;           // tags of the views added, in the order D, D_out, d, layers, aspect_ratio
+    std::vector<int> removed_volumes; // tags of the input volumes removed from the model (mesh_gmsh_model)
 };
 
 // Meshes the 3-node triangles of the current Gmsh model's surface entities
@@ -56,6 +57,13 @@ struct GmshModelResult {
 //     the input surface entities leave that group, and gmsh::write then
 //     saves the volume mesh with its named patches, as mesh.msh has them;
 //   - with options.views, the views of the mesh's fields.
+// And it removes from the model the volume entities it meshed: each volume,
+// other than the new one, all of whose boundary surfaces were selected and
+// that holds no volume mesh (the OCC solid a host meshed in 2D, say), so
+// that a later gmsh::model::mesh::generate(3) does not fill it with Gmsh's
+// own tets on top of scalemesh's. Only from the model, not recursively (its
+// surfaces stay); a later gmsh::model::occ::synchronize (or geo) restores it
+// from the CAD kernel. GmshModelResult::removed_volumes names them.
 // Patches: each input surface entity that belongs to a physical surface
 // whose name is not "wall" (other than options.physical_group) gives its
 // triangles the label of that name; the rest are "wall", patch 0. Each

@@ -293,6 +293,43 @@ void add_to_model(GmshModelResult& out, const GmshModelOptions& options)
     gmsh::view::addHomogeneousModelData(view, 0, model_name, "ElementData", tet_tags, mesh.aspect_ratio, 0.0, 1);
 }
 
+// The volume entities the input surfaces bound, now meshed by `meshed`: each
+// other volume all of whose boundary surfaces were selected and that holds
+// no mesh of its own (such as the OCC solid the host meshed in 2D). Left in
+// the model, a later gmsh::model::mesh::generate(3) would fill it with
+// Gmsh's own tets, on top of scalemesh's. Removed from the model only, not
+// recursively: its surfaces stay, and a later occ::synchronize brings it
+// back from the CAD.
+std::vector<int> remove_input_volumes(const Selection& selection, int meshed)
+{
+    std::vector<int> selected = selection.entities;
+    std::sort(selected.begin(), selected.end());
+    std::vector<int> candidates;
+    for (int entity : selection.entities) {
+        std::vector<int> up, down;
+        gmsh::model::getAdjacencies(2, entity, up, down);
+        candidates.insert(candidates.end(), up.begin(), up.end());
+    }
+    std::sort(candidates.begin(), candidates.end());
+    candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+    std::vector<int> removed;
+    for (int volume : candidates) {
+        if (volume == meshed) continue;
+        std::vector<int> up, bounding, types;
+        gmsh::model::getAdjacencies(3, volume, up, bounding);
+        gmsh::model::mesh::getElementTypes(types, 3, volume);
+        const bool input = !bounding.empty() && types.empty() &&
+                           std::all_of(bounding.begin(), bounding.end(), [&](int surface) {
+                               return std::binary_search(selected.begin(), selected.end(), surface);
+                           });
+        if (input) removed.push_back(volume);
+    }
+    gmsh::vectorpair entities;
+    for (int volume : removed) entities.emplace_back(3, volume);
+    if (!entities.empty()) gmsh::model::removeEntities(entities, false);
+    return removed;
+}
+
 } // namespace
 
 GmshModelResult mesh_gmsh_model(const GmshModelOptions& model, const MeshOptions& options)
@@ -308,6 +345,7 @@ GmshModelResult mesh_gmsh_model(const GmshModelOptions& model, const MeshOptions
     GmshModelResult out;
     out.mesh = mesh_surface(surface, options);
     gmsh_call("adding the volume mesh", [&] { add_to_model(out, model); });
+    gmsh_call("removing the input volume", [&] { out.removed_volumes = remove_input_volumes(selection, out.volume); });
     return out;
 }
 

@@ -229,6 +229,7 @@ py::dict mesh_gmsh_model(const py::handle& physical_group, const std::string& vo
     out["first_node_tag"] = result.first_node_tag;
     out["first_tet_tag"] = result.first_tet_tag;
     out["views"] = result.views;
+    out["removed_volumes"] = result.removed_volumes;
     return out;
 }
 
@@ -299,7 +300,9 @@ gmsh.initialize or gmsh.finalize.
 Returns the dict of mesh_surface plus volume (entity tag), patch_surfaces and
 patch_groups (per patch id: entity and physical group tags, -1 for a patch
 without triangles), volume_group, first_node_tag and first_tet_tag (point i
-is node first_node_tag + i, tet t element first_tet_tag + t), views (tags).)");
+is node first_node_tag + i, tet t element first_tet_tag + t), views (tags),
+removed_volumes (the input volume entities removed from the model, so that a
+later gmsh.model.mesh.generate(3) does not mesh them on top of the result).)");
 
     m.def("defaults", [] {
         const MeshOptions o;

@@ -169,6 +169,22 @@ class TestMeshGmshModel(GmshSession):
         self.assertTrue(np.all(np.isfinite(result["d"][:surface_points])))
         self.assertTrue(np.all(result["d"][:surface_points] > 0))
 
+    def test_the_meshed_input_volume_leaves_the_model(self):
+        # The OCC cylinder (volume 1) the tube was meshed from goes: left in
+        # the model, generate(3) would fill it with Gmsh's tets beside the
+        # result's, which stays as it is.
+        build_tube()
+        self.assertEqual(gmsh.model.getEntities(3), [(3, 1)])
+        result = scalemesh.mesh_gmsh_model(threads=2)
+        self.assertEqual(result["removed_volumes"], [1])
+        self.assertEqual(gmsh.model.getEntities(3), [(3, result["volume"])])
+        for surface in (1, 2, 3):  # the input surfaces stay, with their triangles
+            self.assertGreater(len(gmsh.model.mesh.getElementsByType(2, surface)[0]), 0)
+        gmsh.model.mesh.generate(3)
+        self.assertEqual(gmsh.model.getEntities(3), [(3, result["volume"])])
+        tet_tags, _ = gmsh.model.mesh.getElementsByType(4)
+        self.assertEqual(len(tet_tags), len(result["tets"]))
+
     def test_same_mesh_as_scalemesh_run(self):
         build_tube()
         binary = os.environ.get("SCALEMESH_BINARY")
