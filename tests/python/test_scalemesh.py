@@ -10,6 +10,7 @@ directory and SCALEMESH_BINARY to the scalemesh command.
 """
 
 import json
+import locale
 import os
 import subprocess
 import tempfile
@@ -325,6 +326,31 @@ class TestWithoutSession(unittest.TestCase):
         gmsh.finalize()
         with self.assertRaisesRegex(ValueError, "gmsh.initialize"):
             scalemesh.mesh_gmsh_model()
+
+
+class TestLocale(unittest.TestCase):
+    def test_lengths_read_alike_under_a_comma_locale(self):
+        # Under a locale whose decimal separator is a comma (compiled here
+        # from glibc's de_DE source, which the locales package ships),
+        # "0.5 mm" is still a length: the call gets as far as the surface,
+        # which it refuses for its own reason.
+        with tempfile.TemporaryDirectory() as scratch:
+            compiled = os.path.join(scratch, "de_DE.UTF-8")
+            subprocess.run(["localedef", "-c", "-i", "de_DE", "-f", "UTF-8", compiled], capture_output=True)
+            self.assertTrue(os.path.exists(os.path.join(compiled, "LC_NUMERIC")),
+                            "localedef could not compile de_DE (setup.sh installs the locales package)")
+            previous = locale.setlocale(locale.LC_NUMERIC)
+            os.environ["LOCPATH"] = scratch
+            try:
+                locale.setlocale(locale.LC_NUMERIC, "de_DE.UTF-8")
+                self.assertEqual(locale.localeconv()["decimal_point"], ",")
+                with self.assertRaisesRegex(ValueError, "the surface has no triangles"):
+                    scalemesh.mesh_surface(np.zeros((0, 3)), np.zeros((0, 3)), L_min="0.5 mm")
+                with self.assertRaisesRegex(ValueError, "L_min = '0,5 mm' is not a length"):
+                    scalemesh.mesh_surface(np.zeros((0, 3)), np.zeros((0, 3)), L_min="0,5 mm")
+            finally:
+                locale.setlocale(locale.LC_NUMERIC, previous)
+                del os.environ["LOCPATH"]
 
 
 if __name__ == "__main__":
