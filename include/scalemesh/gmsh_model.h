@@ -57,11 +57,13 @@ struct GmshModelResult {
 //     the input surface entities leave that group, and gmsh::write then
 //     saves the volume mesh with its named patches, as mesh.msh has them;
 //   - with options.views, the views of the mesh's fields.
-// And it removes from the model the volume entities it meshed: each volume,
-// other than the new one, all of whose boundary surfaces were selected and
-// that holds no volume mesh (the OCC solid a host meshed in 2D, say), so
-// that a later gmsh::model::mesh::generate(3) does not fill it with Gmsh's
-// own tets on top of scalemesh's. Only from the model, not recursively (its
+// And it removes from the model the volume entities it meshed, so that a
+// later gmsh::model::mesh::generate(3) does not fill them with Gmsh's own
+// tets on top of scalemesh's: each volume all of whose boundary surfaces
+// were selected, that holds no volume mesh, is in no physical volume group
+// and shares none of its surfaces with another volume (the OCC solid a host
+// meshed in 2D, say; with physical_group selecting only part of a solid's
+// surfaces, the solid stays). Only from the model, not recursively (its
 // surfaces stay); a later gmsh::model::occ::synchronize (or geo) restores it
 // from the CAD kernel. GmshModelResult::removed_volumes names them.
 // Patches: each input surface entity that belongs to a physical surface

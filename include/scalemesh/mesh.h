@@ -4,9 +4,10 @@
 // gmsh::model::mesh::getNodes and getElements, of NumPy and of libigl's V, F,
 // T). The stages, parameters and guarantees are those of `scalemesh run`
 // (docs/method.md, docs/case-file.md); the library never prints, never exits
-// and changes no process-wide setting (threads run in a TBB arena of its own;
-// numbers are read the same under any LC_NUMERIC), but for the few on the
-// image path that mesh_image lists.
+// and changes no process-wide setting (threads run in a TBB arena of its own),
+// but for the few that mesh_image and, with layers = "prisms", mesh_surface
+// list. Its options are read alike under any LC_NUMERIC; ITK's and Gmsh's
+// file readers follow the locale the host set.
 //
 // Errors are the exceptions of <scalemesh/errors.h>, all derived from
 // std::runtime_error: InputError (bad input or options; the message says what

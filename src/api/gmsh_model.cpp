@@ -293,41 +293,49 @@ void add_to_model(GmshModelResult& out, const GmshModelOptions& options)
     gmsh::view::addHomogeneousModelData(view, 0, model_name, "ElementData", tet_tags, mesh.aspect_ratio, 0.0, 1);
 }
 
-// The volume entities the input surfaces bound, now meshed by `meshed`: each
-// other volume all of whose boundary surfaces were selected and that holds
-// no mesh of its own (such as the OCC solid the host meshed in 2D). Left in
-// the model, a later gmsh::model::mesh::generate(3) would fill it with
-// Gmsh's own tets, on top of scalemesh's. Removed from the model only, not
-// recursively: its surfaces stay, and a later occ::synchronize brings it
-// back from the CAD.
-std::vector<int> remove_input_volumes(const Selection& selection, int meshed)
+// The volume entities the selected surfaces bound that scalemesh's volume
+// takes the place of (such as the OCC solid the host meshed in 2D): each
+// volume all of whose boundary surfaces were selected, that holds no mesh of
+// its own and is in no physical volume group, and that shares none of its
+// surfaces with another such volume (two volumes on one selected surface,
+// as a vessel inside a tissue block, are not both the input: neither is
+// taken). Left in the model, a later gmsh::model::mesh::generate(3) would
+// fill it with Gmsh's own tets on top of scalemesh's. Read-only.
+std::vector<int> input_volumes(const Selection& selection)
 {
     std::vector<int> selected = selection.entities;
     std::sort(selected.begin(), selected.end());
+    std::map<int, int> volumes_on; // selected surface -> the volumes it bounds
     std::vector<int> candidates;
     for (int entity : selection.entities) {
         std::vector<int> up, down;
         gmsh::model::getAdjacencies(2, entity, up, down);
+        volumes_on[entity] = static_cast<int>(up.size());
         candidates.insert(candidates.end(), up.begin(), up.end());
     }
     std::sort(candidates.begin(), candidates.end());
     candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
-    std::vector<int> removed;
+    std::vector<int> input;
     for (int volume : candidates) {
-        if (volume == meshed) continue;
-        std::vector<int> up, bounding, types;
+        std::vector<int> up, bounding, types, groups;
         gmsh::model::getAdjacencies(3, volume, up, bounding);
         gmsh::model::mesh::getElementTypes(types, 3, volume);
-        const bool input = !bounding.empty() && types.empty() &&
-                           std::all_of(bounding.begin(), bounding.end(), [&](int surface) {
-                               return std::binary_search(selected.begin(), selected.end(), surface);
-                           });
-        if (input) removed.push_back(volume);
+        gmsh::model::getPhysicalGroupsForEntity(3, volume, groups);
+        const bool alone = std::all_of(bounding.begin(), bounding.end(), [&](int surface) {
+            return std::binary_search(selected.begin(), selected.end(), surface) && volumes_on[surface] == 1;
+        });
+        if (!bounding.empty() && types.empty() && groups.empty() && alone) input.push_back(volume);
     }
+    return input;
+}
+
+// Removes `volumes` from the model only, not recursively: their surfaces
+// stay, and a later occ::synchronize brings them back from the CAD.
+void remove_volumes(const std::vector<int>& volumes)
+{
     gmsh::vectorpair entities;
-    for (int volume : removed) entities.emplace_back(3, volume);
+    for (int volume : volumes) entities.emplace_back(3, volume);
     if (!entities.empty()) gmsh::model::removeEntities(entities, false);
-    return removed;
 }
 
 } // namespace
@@ -342,10 +350,12 @@ GmshModelResult mesh_gmsh_model(const GmshModelOptions& model, const MeshOptions
     const GmshSession host(GmshSession::Host{});
     const Selection selection = gmsh_call("reading the surface entities", [&] { return select_surfaces(model); });
     const SurfaceInput surface = gmsh_call("reading the triangles", [&] { return read_surface(selection); });
+    const std::vector<int> input = gmsh_call("finding the input volume", [&] { return input_volumes(selection); });
     GmshModelResult out;
     out.mesh = mesh_surface(surface, options);
     gmsh_call("adding the volume mesh", [&] { add_to_model(out, model); });
-    gmsh_call("removing the input volume", [&] { out.removed_volumes = remove_input_volumes(selection, out.volume); });
+    gmsh_call("removing the input volume", [&] { remove_volumes(input); });
+    out.removed_volumes = input;
     return out;
 }
 

@@ -48,8 +48,10 @@ int64_t parse_memory_size(const std::string& text, const std::string& what)
     // std::from_chars reads the number as written in C, whatever the
     // host's LC_NUMERIC (std::stod would take "1,5" in a German locale and
     // stop at "1.5"'s point).
-    size_t used = text.find_first_not_of(" \t");
-    if (used == std::string::npos) throw refuse();
+    // Leading white space and one '+' are skipped, as std::stod skipped them.
+    size_t used = 0;
+    while (used < text.size() && std::isspace(static_cast<unsigned char>(text[used]))) ++used;
+    if (used < text.size() && text[used] == '+') ++used;
     double value = 0;
     const auto [end, error] = std::from_chars(text.data() + used, text.data() + text.size(), value);
     if (error != std::errc()) throw refuse();

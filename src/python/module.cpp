@@ -13,6 +13,7 @@
 #include <pybind11/stl.h>
 
 #include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
@@ -37,7 +38,10 @@ MeshLength length_option(const char* key, const py::handle& value)
         const std::string text = value.cast<std::string>();
         // std::from_chars: the number as written in Python, whatever the
         // process's LC_NUMERIC (std::strtod follows it).
-        const char* begin = text.c_str() + std::min(text.find_first_not_of(' '), text.size());
+        // Leading white space and one '+' are skipped, as std::strtod skipped them.
+        const char* begin = text.c_str();
+        while (std::isspace(static_cast<unsigned char>(*begin))) ++begin;
+        if (*begin == '+') ++begin;
         double v = 0;
         const auto [end, error] = std::from_chars(begin, text.c_str() + text.size(), v);
         const bool number = error == std::errc();

@@ -186,6 +186,29 @@ class TestMeshGmshModel(GmshSession):
         tet_tags, _ = gmsh.model.mesh.getElementsByType(4)
         self.assertEqual(len(tet_tags), len(result["tets"]))
 
+    def test_a_volume_beside_another_stays(self):
+        # A vessel inside a tissue block (OCC fragments: the cylinder's
+        # surfaces bound both volumes): neither is taken for the input and
+        # removed, though the vessel's surfaces are all selected.
+        gmsh.model.add("tissue")
+        block = gmsh.model.occ.addBox(-6, -6, -LENGTH / 2, 12, 12, LENGTH)
+        vessel = gmsh.model.occ.addCylinder(0, 0, -LENGTH / 2 - 5, 0, 0, LENGTH + 10, RADIUS)
+        gmsh.model.occ.intersect([(3, vessel)], [(3, gmsh.model.occ.copy([(3, block)])[0][1])])
+        gmsh.model.occ.fragment([(3, block)], gmsh.model.occ.getEntities(3))
+        gmsh.model.occ.synchronize()
+        volumes = gmsh.model.getEntities(3)
+        self.assertEqual(len(volumes), 2)
+        inner = min(volumes, key=lambda v: gmsh.model.occ.getMass(*v))
+        _, surfaces = gmsh.model.getAdjacencies(*inner)
+        gmsh.model.addPhysicalGroup(2, list(surfaces), 10)
+        gmsh.model.setPhysicalName(2, 10, "vessel")
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.6)
+        gmsh.model.mesh.generate(2)
+        result = scalemesh.mesh_gmsh_model("vessel", threads=2)
+        self.assertEqual(result["removed_volumes"], [])
+        for volume in volumes:
+            self.assertIn(volume, gmsh.model.getEntities(3))
+
     def test_same_mesh_as_scalemesh_run(self):
         build_tube()
         binary = os.environ.get("SCALEMESH_BINARY")
@@ -340,6 +363,7 @@ class TestLocale(unittest.TestCase):
             self.assertTrue(os.path.exists(os.path.join(compiled, "LC_NUMERIC")),
                             "localedef could not compile de_DE (setup.sh installs the locales package)")
             previous = locale.setlocale(locale.LC_NUMERIC)
+            previous_path = os.environ.get("LOCPATH")
             os.environ["LOCPATH"] = scratch
             try:
                 locale.setlocale(locale.LC_NUMERIC, "de_DE.UTF-8")
@@ -350,7 +374,10 @@ class TestLocale(unittest.TestCase):
                     scalemesh.mesh_surface(np.zeros((0, 3)), np.zeros((0, 3)), L_min="0,5 mm")
             finally:
                 locale.setlocale(locale.LC_NUMERIC, previous)
-                del os.environ["LOCPATH"]
+                if previous_path is None:
+                    del os.environ["LOCPATH"]
+                else:
+                    os.environ["LOCPATH"] = previous_path
 
 
 if __name__ == "__main__":

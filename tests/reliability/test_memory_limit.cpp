@@ -32,18 +32,28 @@ TEST(MemoryLimit, SizesParseAlikeUnderACommaLocale)
 {
     const TempDir dir;
     const std::filesystem::path locale = dir.path / "de_DE.UTF-8";
-    const std::string compile = "localedef -c -i de_DE -f UTF-8 " + locale.string() + " >/dev/null 2>&1";
+    const std::string compile = "localedef -c -i de_DE -f UTF-8 '" + locale.string() + "' >/dev/null 2>&1";
     (void)std::system(compile.c_str()); // -c: written despite warnings, which set the exit code
     ASSERT_TRUE(std::filesystem::exists(locale / "LC_NUMERIC"))
         << "localedef could not compile de_DE (setup.sh installs the locales package)";
-    const std::string previous = std::setlocale(LC_NUMERIC, nullptr);
+    // The process's numeric locale and LOCPATH as they were, back however
+    // the test ends.
+    struct Restore {
+        std::string numeric = std::setlocale(LC_NUMERIC, nullptr);
+        const char* had_path = std::getenv("LOCPATH");
+        std::string path = had_path ? had_path : "";
+        ~Restore()
+        {
+            std::setlocale(LC_NUMERIC, numeric.c_str());
+            if (had_path) ::setenv("LOCPATH", path.c_str(), 1);
+            else ::unsetenv("LOCPATH");
+        }
+    } restore;
     ::setenv("LOCPATH", dir.path.c_str(), 1);
     ASSERT_NE(std::setlocale(LC_NUMERIC, "de_DE.UTF-8"), nullptr);
     EXPECT_EQ(std::string(std::localeconv()->decimal_point), ","); // the locale is in effect
     EXPECT_EQ(parse_memory_size("1.5 GiB", "--max-memory"), 3LL << 29);
     EXPECT_THROW(parse_memory_size("1,5G", "--max-memory"), InputError);
-    std::setlocale(LC_NUMERIC, previous.c_str());
-    ::unsetenv("LOCPATH");
 }
 
 TEST(MemoryLimit, SizesParse)
@@ -52,6 +62,7 @@ TEST(MemoryLimit, SizesParse)
     EXPECT_EQ(parse_memory_size("512M", "--max-memory"), 512LL << 20);
     EXPECT_EQ(parse_memory_size("1.5 GiB", "--max-memory"), 3LL << 29);
     EXPECT_EQ(parse_memory_size("300mb", "--max-memory"), 300LL << 20);
+    EXPECT_EQ(parse_memory_size(" +8G", "--max-memory"), 8LL << 30); // as std::stod read it
     EXPECT_EQ(parse_memory_size("2000000000", "--max-memory"), 2000000000LL);
     for (const std::string bad : {"", "lots", "8X", "-1G", "0", "nanG", "1e30G", "0.5", "1000K"})
         EXPECT_THROW(parse_memory_size(bad, "--max-memory"), InputError) << bad;
