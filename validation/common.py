@@ -3,6 +3,7 @@ curved_validation.py): running OpenFOAM tools, reading ASCII OpenFOAM fields
 and the boundary faces of a polyMesh, and writing docs/validation.md without
 losing the sections another harness generated. python3 stdlib only."""
 
+import math
 import os
 import re
 import subprocess
@@ -151,6 +152,78 @@ def boundary_faces(case):
     return patches, min(zs), max(zs)
 
 
+# ------------------------------------------------------ snappyHexMesh peer
+
+
+def snappy_tube(case, stl, z0, z1, half_width, h, location_z, layers, regions=()):
+    """snappyHexMesh on a tube along z whose wall is constant/triSurface/`stl`
+    (mm): a background block of h mm cubes from z0 to z1 (its end faces
+    become the inlet and outlet patches), at least half_width + 2 h wide in x
+    and y, castellated and snapped to the STL, each region of `regions`
+    ((level, za, zb, radius): a cylinder along z refined to that level)
+    refined inside, then `layers` wall layers (relative sizes, expansion
+    ratio 1.2, the last layer 0.5 of the cell next to it), as
+    snappyHexMesh's tutorials set them; then scaled to metres. The case's
+    system/ must hold the rest (controlDict, schemes, solution). Returns the
+    seconds taken and snappyHexMesh's layer figures: the wall layers on
+    average and the percentage of the asked thickness."""
+    head = "FoamFile { version 2.0; format ascii; class dictionary; object %s; }\n"
+    nxy, nz = 2 * int(math.ceil((half_width + 2 * h) / h)), int(round((z1 - z0) / h))
+    e = nxy * h / 2
+    with open(os.path.join(case, "system", "blockMeshDict"), "w") as f:
+        f.write(head % "blockMeshDict")
+        f.write("convertToMeters 1;\nvertices (")
+        for z in (z0, z1):
+            for x, y in ((-e, -e), (e, -e), (e, e), (-e, e)):
+                f.write(" (%.9g %.9g %.9g)" % (x, y, z))
+        f.write(" );\nblocks ( hex (0 1 2 3 4 5 6 7) (%d %d %d) simpleGrading (1 1 1) );\nedges ();\n"
+                "boundary ( inlet { type patch; faces ( (0 3 2 1) ); } outlet { type patch; faces ( (4 5 6 7) ); }\n"
+                "  sides { type patch; faces ( (0 1 5 4) (2 3 7 6) (1 2 6 5) (0 4 7 3) ); } );\n" % (nxy, nxy, nz))
+    geometry = "".join("  region%d { type searchableCylinder; point1 (0 0 %.9g); point2 (0 0 %.9g); radius %.9g; }\n"
+                       % (i, za, zb, r) for i, (_, za, zb, r) in enumerate(regions))
+    refinement = "".join("    region%d { mode inside; levels ((1e15 %d)); }\n" % (i, level)
+                         for i, (level, _, _, _) in enumerate(regions))
+    with open(os.path.join(case, "system", "snappyHexMeshDict"), "w") as f:
+        f.write(head % "snappyHexMeshDict")
+        f.write("castellatedMesh true; snap true; addLayers true;\n"
+                "geometry {\n  %s { type triSurfaceMesh; name wall; }\n%s}\n"
+                "castellatedMeshControls {\n"
+                "  maxLocalCells 100000000; maxGlobalCells 200000000; minRefinementCells 0; maxLoadUnbalance 0.1;\n"
+                "  nCellsBetweenLevels 3; features ();\n"
+                "  refinementSurfaces { wall { level (0 0); patchInfo { type wall; } } }\n"
+                "  resolveFeatureAngle 30;\n  refinementRegions {\n%s  }\n"
+                "  locationInMesh (0.0123 0.0234 %.9g); allowFreeStandingZoneFaces true;\n}\n"
+                "snapControls { nSmoothPatch 3; tolerance 2.0; nSolveIter 100; nRelaxIter 5; nFeatureSnapIter 10;\n"
+                "  implicitFeatureSnap true; explicitFeatureSnap false; multiRegionFeatureSnap false; }\n"
+                "addLayersControls {\n"
+                "  relativeSizes true; layers { wall { nSurfaceLayers %d; } }\n"
+                "  expansionRatio 1.2; finalLayerThickness 0.5; minThickness 0.1; nGrow 0; featureAngle 60;\n"
+                "  slipFeatureAngle 30; nRelaxIter 3; nSmoothSurfaceNormals 1; nSmoothNormals 3; nSmoothThickness 10;\n"
+                "  maxFaceThicknessRatio 0.5; maxThicknessToMedialRatio 0.3; minMedialAxisAngle 90;\n"
+                "  nBufferCellsNoExtrude 0; nLayerIter 50;\n}\n"
+                "meshQualityControls {\n"
+                "  maxNonOrtho 65; maxBoundarySkewness 20; maxInternalSkewness 4; maxConcave 80; minVol 1e-13;\n"
+                "  minTetQuality 1e-15; minArea -1; minTwist 0.02; minDeterminant 0.001; minFaceWeight 0.05;\n"
+                "  minVolRatio 0.01; minTriangleTwist -1; nSmoothScale 4; errorReduction 0.75;\n"
+                "  relaxed { maxNonOrtho 75; }\n}\n"
+                "writeFlags ( ); mergeTolerance 1e-6;\n"
+                % (stl, geometry, refinement, location_z, layers))
+    t = time.time()
+    run(["blockMesh", "-case", "."], case, "log.blockMesh")
+    text = run(["snappyHexMesh", "-case", ".", "-overwrite"], case, "log.snappyHexMesh")
+    m = re.compile(r"(?m)^wall\s+\d+\s+([0-9.]+)\s+[0-9.eE+-]+\s+([0-9.]+)").search(
+        text, text.rfind("overall thickness") + 1)
+    if not m:
+        raise RuntimeError("snappyHexMesh added no wall layers in " + case)
+    run(["transformPoints", "-case", ".", "-scale", "(1e-3 1e-3 1e-3)"], case, "log.transformPoints")
+    # The block's sides lie outside the tube: snappyHexMesh drops their
+    # emptied patch, leaving the three the template's fields name.
+    boundary = open(os.path.join(case, "constant", "polyMesh", "boundary")).read()
+    if re.search(r"\n\s*sides\s*\{", boundary):
+        raise RuntimeError("faces of the block's sides are left after snappyHexMesh in " + case)
+    return time.time() - t, float(m.group(1)), float(m.group(2))
+
+
 # ---------------------------------------------------------------- the page
 
 # docs/validation.md holds the tube page (tube_validation.py writes all of it)
@@ -169,11 +242,20 @@ def generated_section(text, begin=CURVED_BEGIN, end=CURVED_END):
     return text[i:j + len(end)]
 
 
+# Any harness's section: "<!-- NAME: begin (generated, do not edit) -->"
+# to "<!-- NAME: end -->" (curved_validation.py, multiscale_validation.py
+# stepped and tree).
+MARKED_SECTION = re.compile(r"<!-- ([^:>]+): begin \(generated, do not edit\) -->.*?<!-- \1: end -->", re.S)
+
+
 def write_page(doc, text):
-    """Writes `text` to `doc`, keeping a marked section the old file had."""
-    kept = generated_section(open(doc).read()) if os.path.exists(doc) else ""
-    if kept and not generated_section(text):
-        text = text.rstrip("\n") + "\n\n" + kept + "\n"
+    """Writes `text` to `doc`, keeping each marked section the old file had
+    and `text` has not, in their order, after it."""
+    old = open(doc).read() if os.path.exists(doc) else ""
+    have = {m.group(1) for m in MARKED_SECTION.finditer(text)}
+    for m in MARKED_SECTION.finditer(old):
+        if m.group(1) not in have:
+            text = text.rstrip("\n") + "\n\n" + m.group(0) + "\n"
     with open(doc, "w") as f:
         f.write(text)
 

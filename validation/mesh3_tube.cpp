@@ -19,6 +19,8 @@
 #include <CGAL/Mesh_triangulation_3.h>
 #include <CGAL/make_mesh_3.h>
 
+#include "complex_msh.h"
+
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -90,66 +92,15 @@ int main(int argc, char** argv)
                             params::cell_size = h);
     const Complex complex = CGAL::make_mesh_3<Complex>(domain, criteria);
 
-    // The vertices of the complex's tets, numbered from 1 in the order met.
-    std::map<Triangulation::Vertex_handle, int> index;
-    std::vector<Point> points;
-    const auto id = [&](Triangulation::Vertex_handle v) {
-        const auto [it, added] = index.emplace(v, static_cast<int>(points.size()) + 1);
-        if (added) points.push_back(v->point().point());
-        return it->second;
-    };
-    std::vector<std::array<int, 4>> tets;
-    for (auto c = complex.cells_in_complex_begin(); c != complex.cells_in_complex_end(); ++c) {
-        std::array<int, 4> t{id(c->vertex(0)), id(c->vertex(1)), id(c->vertex(2)), id(c->vertex(3))};
-        const Point& a = points[t[0] - 1];
-        if (CGAL::orientation(a, points[t[1] - 1], points[t[2] - 1], points[t[3] - 1]) == CGAL::NEGATIVE)
-            std::swap(t[2], t[3]);
-        tets.push_back(t);
-    }
     // Boundary facets, named by where their centroid lies.
-    std::vector<std::array<int, 4>> facets;  // physical tag, three nodes
-    for (auto f = complex.facets_in_complex_begin(); f != complex.facets_in_complex_end(); ++f) {
-        std::array<int, 3> v{};
-        for (int k = 0; k < 3; ++k) {
-            const auto vh = f->first->vertex((f->second + 1 + k) & 3);
-            const auto it = index.find(vh);
-            if (it == index.end()) {
-                std::cerr << "mesh3_tube: a boundary facet's vertex is in no tet of the complex\n";
-                return 1;
-            }
-            v[k] = it->second;
-        }
-        const double z = (points[v[0] - 1].z() + points[v[1] - 1].z() + points[v[2] - 1].z()) / 3;
-        const int tag = z < -half + 1e-6 * half ? 2 : z > half - 1e-6 * half ? 3 : 1;
-        facets.push_back({tag, v[0], v[1], v[2]});
-    }
-    if (tets.empty() || facets.empty()) {
-        std::cerr << "mesh3_tube: Mesh_3 gave an empty complex\n";
+    std::string error;
+    const validation::ComplexCounts counts = validation::write_complex_msh(
+        complex, argv[2], {"wall", "inlet", "outlet"},
+        [](const Point& c) { return c.z() < -half + 1e-6 * half ? 2 : c.z() > half - 1e-6 * half ? 3 : 1; }, error);
+    if (!error.empty()) {
+        std::cerr << "mesh3_tube: " << error << "\n";
         return 1;
     }
-
-    const std::string out = argv[2];
-    std::ofstream file(out + ".part");
-    file.precision(17);
-    file << "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$PhysicalNames\n4\n2 1 \"wall\"\n2 2 \"inlet\"\n"
-            "2 3 \"outlet\"\n3 10 \"fluid\"\n$EndPhysicalNames\n$Nodes\n"
-         << points.size() << "\n";
-    for (size_t i = 0; i < points.size(); ++i)
-        file << i + 1 << " " << points[i].x() << " " << points[i].y() << " " << points[i].z() << "\n";
-    file << "$EndNodes\n$Elements\n" << facets.size() + tets.size() << "\n";
-    size_t n = 0;
-    for (const auto& f : facets)
-        file << ++n << " 2 2 " << f[0] << " " << f[0] << " " << f[1] << " " << f[2] << " " << f[3] << "\n";
-    for (const auto& t : tets)
-        file << ++n << " 4 2 10 10 " << t[0] << " " << t[1] << " " << t[2] << " " << t[3] << "\n";
-    file << "$EndElements\n";
-    file.close();
-    if (!file || std::rename((out + ".part").c_str(), out.c_str()) != 0) {
-        std::cerr << "mesh3_tube: cannot write " << out << "\n";
-        std::remove((out + ".part").c_str());
-        return 1;
-    }
-    std::cout << tets.size() << " tets, " << facets.size() << " boundary triangles, " << points.size()
-              << " nodes\n";
+    std::cout << counts.tets << " tets, " << counts.facets << " boundary triangles, " << counts.nodes << " nodes\n";
     return 0;
 }

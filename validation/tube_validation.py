@@ -42,7 +42,7 @@ import time
 sys.dont_write_bytecode = True  # no __pycache__ in the source tree (ctest runs this from it)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from common import (REPO, log, run, solve, latest_time, internal_field,  # noqa: E402
-                    patch_field, boundary_faces, foam_list_lines, write_page)
+                    patch_field, boundary_faces, foam_list_lines, snappy_tube, write_page)
 
 NU = 1e-3          # m^2/s: Reynolds number U D / nu = 0.6, developed within
 U_IN = 0.1         # m/s    about 0.6 diameters of the inlet
@@ -278,57 +278,9 @@ def snappy_case(h, case, template, layers=3):
                         f.write("vertex %.9g %.9g %.9g\n" % v)
                     f.write("endloop\nendfacet\n")
         f.write("endsolid wall\n")
-    head = "FoamFile { version 2.0; format ascii; class dictionary; object %s; }\n"
-    extent = TUBE_R + 2 * h
-    nxy, nz = 2 * int(math.ceil(extent / h)), int(round(2 * TUBE_HALF / h))
-    e = nxy * h / 2
-    with open(os.path.join(case, "system", "blockMeshDict"), "w") as f:
-        f.write(head % "blockMeshDict")
-        f.write("convertToMeters 1;\nvertices (")
-        for z in (-TUBE_HALF, TUBE_HALF):
-            for x, y in ((-e, -e), (e, -e), (e, e), (-e, e)):
-                f.write(" (%.9g %.9g %.9g)" % (x, y, z))
-        f.write(" );\nblocks ( hex (0 1 2 3 4 5 6 7) (%d %d %d) simpleGrading (1 1 1) );\nedges ();\n"
-                "boundary ( inlet { type patch; faces ( (0 3 2 1) ); } outlet { type patch; faces ( (4 5 6 7) ); }\n"
-                "  sides { type patch; faces ( (0 1 5 4) (2 3 7 6) (1 2 6 5) (0 4 7 3) ); } );\n" % (nxy, nxy, nz))
-    with open(os.path.join(case, "system", "snappyHexMeshDict"), "w") as f:
-        f.write(head % "snappyHexMeshDict")
-        f.write("castellatedMesh true; snap true; addLayers true;\n"
-                "geometry { wall.stl { type triSurfaceMesh; name wall; } }\n"
-                "castellatedMeshControls {\n"
-                "  maxLocalCells 100000000; maxGlobalCells 200000000; minRefinementCells 0; maxLoadUnbalance 0.1;\n"
-                "  nCellsBetweenLevels 3; features (); refinementSurfaces { wall { level (0 0); patchInfo { type wall; } } }\n"
-                "  resolveFeatureAngle 30; refinementRegions {}; locationInMesh (0.0123 0.0234 0.0345);\n"
-                "  allowFreeStandingZoneFaces true;\n}\n"
-                "snapControls { nSmoothPatch 3; tolerance 2.0; nSolveIter 100; nRelaxIter 5; nFeatureSnapIter 10;\n"
-                "  implicitFeatureSnap true; explicitFeatureSnap false; multiRegionFeatureSnap false; }\n"
-                "addLayersControls {\n"
-                "  relativeSizes true; layers { wall { nSurfaceLayers %d; } }\n"
-                "  expansionRatio 1.2; finalLayerThickness 0.5; minThickness 0.1; nGrow 0; featureAngle 60;\n"
-                "  slipFeatureAngle 30; nRelaxIter 3; nSmoothSurfaceNormals 1; nSmoothNormals 3; nSmoothThickness 10;\n"
-                "  maxFaceThicknessRatio 0.5; maxThicknessToMedialRatio 0.3; minMedialAxisAngle 90;\n"
-                "  nBufferCellsNoExtrude 0; nLayerIter 50;\n}\n"
-                "meshQualityControls {\n"
-                "  maxNonOrtho 65; maxBoundarySkewness 20; maxInternalSkewness 4; maxConcave 80; minVol 1e-13;\n"
-                "  minTetQuality 1e-15; minArea -1; minTwist 0.02; minDeterminant 0.001; minFaceWeight 0.05;\n"
-                "  minVolRatio 0.01; minTriangleTwist -1; nSmoothScale 4; errorReduction 0.75;\n"
-                "  relaxed { maxNonOrtho 75; }\n}\n"
-                "writeFlags ( ); mergeTolerance 1e-6;\n" % layers)
-    t = time.time()
-    run(["blockMesh", "-case", "."], case, "log.blockMesh")
-    text = run(["snappyHexMesh", "-case", ".", "-overwrite"], case, "log.snappyHexMesh")
-    m = re.compile(r"(?m)^wall\s+\d+\s+([0-9.]+)\s+[0-9.eE+-]+\s+([0-9.]+)").search(
-        text, text.rfind("overall thickness") + 1)
-    if not m:
-        raise RuntimeError("snappyHexMesh added no wall layers in " + case)
-    log("snappyHexMesh h %g: %s wall layers on average, %s%% of the asked thickness" % (h, m.group(1), m.group(2)))
-    run(["transformPoints", "-case", ".", "-scale", "(1e-3 1e-3 1e-3)"], case, "log.transformPoints")
-    # The block's sides lie outside the cylinder: snappyHexMesh drops their
-    # emptied patch, leaving the three the template's fields name.
-    boundary = open(os.path.join(case, "constant", "polyMesh", "boundary")).read()
-    if re.search(r"\n\s*sides\s*\{", boundary):
-        raise RuntimeError("faces of the block's sides are left after snappyHexMesh in " + case)
-    return time.time() - t
+    seconds, layers_made, thickness = snappy_tube(case, "wall.stl", -TUBE_HALF, TUBE_HALF, TUBE_R, h, 0.0345, layers)
+    log("snappyHexMesh h %g: %g wall layers on average, %g%% of the asked thickness" % (h, layers_made, thickness))
+    return seconds
 
 
 def analyse(case):
