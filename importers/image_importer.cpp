@@ -291,7 +291,11 @@ std::pair<std::string, std::optional<std::string>> metaimage_field(const std::st
         return first == std::string::npos ? std::string()
                                           : text.substr(first, text.find_last_not_of(" \t\r") + 1 - first);
     };
-    const std::string key = trim(line.substr(0, line.find_first_of("=:\r")));
+    // MetaIO holds the key as a C string: it ends at a NUL byte too (found by
+    // fuzzing: "CompressedData" then NULs then ": = True" is compressed to
+    // MetaIO, and its inflate of the data never ended).
+    const std::string head = line.substr(0, line.find_first_of("=:\r"));
+    const std::string key = trim(head.substr(0, head.find('\0')));
     const size_t separator = line.find_first_of("=:");
     if (separator == std::string::npos) return {key, std::nullopt};
     // MetaIO's MET_SkipToVal skips every '=', ':' and blank after the key, so

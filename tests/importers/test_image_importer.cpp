@@ -788,6 +788,12 @@ TEST(ImageImporter, RefusesMalformedFiles)
     ASSERT_NE(flag_at, std::string::npos);
     separators.replace(flag_at, 21, "CompressedData: = True");
     expect_refused("separators.mha", separators, "preset zlib dictionary");
+    // MetaIO's key is a C string, ending at a NUL byte: "CompressedData",
+    // NULs, then ": = True" is compressed to it too (found by fuzzing, as
+    // above).
+    std::string nuls = dictionary;
+    nuls.replace(flag_at, 21, "CompressedData" + std::string(40, '\0') + ": = True");
+    expect_refused("nuls.mha", nuls, "preset zlib dictionary");
 
     // Data in a pattern of slice files: MetaIO divides by the step, so a
     // missing or zero step was a division by zero (found by fuzzing). A
