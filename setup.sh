@@ -101,22 +101,23 @@ case "${1:-run}" in
     /usr/bin/python3 validation/tube_validation.py --scalemesh "$build/src/cli/scalemesh"
     /usr/bin/python3 validation/curved_validation.py --scalemesh "$build/src/cli/scalemesh" --jobs 2
     # Issue 41: scale invariance in the flow. The stepped tube (8, 4, 2, 1 mm
-    # in series) and a symmetric tree of 4 generations (6 mm down to 1.3 mm)
-    # at M = 5, 7, 10 against Gmsh (uniform, and sized from curvature), CGAL
+    # in series) and a symmetric tree of 4 generations (6 mm down to 1.3 mm),
+    # scalemesh with the paper's Delaunay layers and with prism layers at
+    # several M, against Gmsh (uniform, and sized from curvature), CGAL
     # Mesh_3 (uniform, and sized from the centreline's radius; its tool is
     # built here, outside the default build) and, on the stepped tube,
-    # snappyHexMesh with a refinement level per segment; regenerates their
-    # sections of docs/validation.md and validation/multiscale/*.json (about
-    # 20 minutes on 2 cores).
+    # snappyHexMesh with a refinement level per segment; each run merged
+    # into validation/multiscale_results.json as it ends, then the sections
+    # of docs/validation.md and docs/multiscale.png regenerated from it.
     cmake --build "$build" --target mesh3_surface
     /usr/bin/python3 validation/multiscale_validation.py --scalemesh "$build/src/cli/scalemesh" \
-      --mesh3-surface "$build/validation/mesh3_surface" --M 5 7 10 --gmsh-h 0.8 --gmsh-curvature 20 --snappy 8 \
-      --mesh3-h 0.8 --mesh3-radius 0.4 0.3 --workdir "$build/multiscale-stepped" \
-      --out validation/multiscale/stepped.json --doc docs/validation.md
+      --mesh3-surface "$build/validation/mesh3_surface" --M 5 7 10 14 --layers delaunay prisms --gmsh-h 0.8 \
+      --gmsh-curvature 20 32 --snappy 8 12 --mesh3-h 0.8 --mesh3-radius 0.4 0.3 \
+      --workdir "$build/multiscale-stepped" --out validation
     /usr/bin/python3 validation/multiscale_validation.py --scalemesh "$build/src/cli/scalemesh" \
-      --mesh3-surface "$build/validation/mesh3_surface" --geometry tree --M 5 7 10 --gmsh-h 0.5 \
-      --gmsh-curvature 16 --mesh3-h 0.6 --mesh3-radius 0.4 0.3 --workdir "$build/multiscale-tree" \
-      --out validation/multiscale/tree.json --doc docs/validation.md
+      --mesh3-surface "$build/validation/mesh3_surface" --geometry tree --M 5 7 10 --layers delaunay prisms \
+      --gmsh-h 0.5 --gmsh-curvature 16 24 --mesh3-h 0.6 --mesh3-radius 0.4 0.3 \
+      --workdir "$build/multiscale-tree" --out validation --doc docs/validation.md --plot docs/multiscale.png
     ;;
   *)
     echo "usage: bash setup.sh [run|test|bench|validate]" >&2

@@ -5,6 +5,7 @@ losing the sections another harness generated. python3 stdlib only."""
 
 import math
 import os
+import platform
 import re
 import subprocess
 import time
@@ -110,21 +111,55 @@ def foam_list_lines(path):
     return lines[i + 2:i + 2 + n]
 
 
-def boundary_faces(case):
-    """Per patch: a list of (centre, area vector) of its faces, in metres."""
-    poly = os.path.join(case, "constant", "polyMesh")
-    points = [tuple(float(v) for v in l.strip()[1:-1].split()) for l in foam_list_lines(os.path.join(poly, "points"))]
-    text = open(os.path.join(poly, "faces")).read()
+def read_points(path):
+    """The points of an ASCII polyMesh points file: (x, y, z) tuples."""
+    return [tuple(float(v) for v in line.strip()[1:-1].split()) for line in foam_list_lines(path)]
+
+
+def read_faces(path):
+    """The faces of an ASCII polyMesh faces file: point index lists."""
+    text = open(path).read()
     m = re.search(r"\n(\d+)\s*\n\s*\(", text)
     # Each face is n(a b c ...), on one line or, when long, on several.
     tokens = text[m.end():].replace("(", " ( ").replace(")", " ) ").split()
     faces, i = [], 0
     while len(faces) < int(m.group(1)) and i < len(tokens):
         n = int(tokens[i])
-        faces.append(" ".join(tokens[i + 2:i + 2 + n]))
+        faces.append([int(v) for v in tokens[i + 2:i + 2 + n]])
         i += n + 3
     if len(faces) != int(m.group(1)):
         raise RuntimeError("faces: %d of %s read" % (len(faces), m.group(1)))
+    return faces
+
+
+def read_polymesh(case):
+    """The case's ASCII polyMesh: points (metres, tuples), faces (point
+    index lists), owner and neighbour (cell per face; neighbour for the
+    interior faces only)."""
+    poly = os.path.join(case, "constant", "polyMesh")
+    points = read_points(os.path.join(poly, "points"))
+    faces = read_faces(os.path.join(poly, "faces"))
+    owner, neighbour = ([int(line) for line in foam_list_lines(os.path.join(poly, name))]
+                        for name in ("owner", "neighbour"))
+    return points, faces, owner, neighbour
+
+
+def cpu_model():
+    """The CPU's model name, or what platform knows."""
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def boundary_faces(case):
+    """Per patch: a list of (centre, area vector) of its faces, in metres."""
+    poly = os.path.join(case, "constant", "polyMesh")
+    points = read_points(os.path.join(poly, "points"))
+    faces = read_faces(os.path.join(poly, "faces"))
     text = open(os.path.join(poly, "boundary")).read()
     patches = {}
     for m in re.finditer(r"\n\s*(\w+)\s*\{([^}]*)\}", text):
@@ -134,9 +169,8 @@ def boundary_faces(case):
         n = int(re.search(r"nFaces\s+(\d+)", body).group(1))
         start = int(re.search(r"startFace\s+(\d+)", body).group(1))
         out = []
-        for line in faces[start:start + n]:
-            ids = [int(v) for v in line.split()]
-            ps = [points[k] for k in ids]
+        for face in faces[start:start + n]:
+            ps = [points[k] for k in face]
             c = tuple(sum(p[j] for p in ps) / len(ps) for j in range(3))
             a = [0.0, 0.0, 0.0]
             for k in range(len(ps)):

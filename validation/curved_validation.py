@@ -32,7 +32,6 @@ import concurrent.futures
 import json
 import math
 import os
-import platform
 import shutil
 import subprocess
 import sys
@@ -40,7 +39,7 @@ import time
 
 sys.dont_write_bytecode = True  # no __pycache__ in the source tree (ctest runs this from it)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import (REPO, log, run, solve, latest_time, internal_field, patch_field,  # noqa: E402
+from common import (REPO, cpu_model, log, run, solve, latest_time, internal_field, patch_field,  # noqa: E402
                     boundary_faces, replace_section, CURVED_BEGIN, CURVED_END)
 
 U_IN = 0.1            # m/s, uniform inflow
@@ -550,15 +549,7 @@ meshes), {wall_min:.1f} minutes wall clock including post-processing
 
 
 def machine():
-    cpu = platform.processor() or platform.machine()
-    try:
-        for line in open("/proc/cpuinfo"):
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return "%s, %d cores" % (cpu, os.cpu_count() or 1)
+    return "%s, %d cores" % (cpu_model(), os.cpu_count() or 1)
 
 
 def main():

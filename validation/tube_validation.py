@@ -186,18 +186,10 @@ def gmsh_case(h, case, template):
     """An isotropic Delaunay tet mesh of the cylinder R = 3 mm, z in [-12, 12]
     mm, element size h mm, as an OpenFOAM case with the template's system/,
     constant/ and 0/ (the same solver settings and boundary conditions)."""
-    import gmsh  # Debian python3-gmsh
-
-    case_from_template(case, template)
-    t = time.time()
-    gmsh.initialize(["gmsh", "-nopopup"])
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.option.setNumber("General.NumThreads", 1)
-        gmsh.model.add("tube")
+    def build(gmsh):
         vol = gmsh.model.occ.addCylinder(0, 0, -TUBE_HALF, 0, 0, 2 * TUBE_HALF, TUBE_R)
         gmsh.model.occ.synchronize()
-        groups = {"inlet": [], "outlet": [], "wall": []}
+        groups = {"wall": [], "inlet": [], "outlet": []}
         for dim, tag in gmsh.model.getEntities(2):
             zmin = gmsh.model.getBoundingBox(dim, tag)[2]
             zmax = gmsh.model.getBoundingBox(dim, tag)[5]
@@ -207,12 +199,32 @@ def gmsh_case(h, case, template):
                 groups["inlet"].append(tag)
             else:
                 groups["outlet"].append(tag)
-        for i, name in enumerate(("wall", "inlet", "outlet")):
-            gmsh.model.setPhysicalName(2, gmsh.model.addPhysicalGroup(2, groups[name], i + 1), name)
-        gmsh.model.setPhysicalName(3, gmsh.model.addPhysicalGroup(3, [vol], 10), "fluid")
-        gmsh.option.setNumber("Mesh.MeshSizeMin", h)
-        gmsh.option.setNumber("Mesh.MeshSizeMax", h)
-        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+        return vol, groups
+    return gmsh_volume_case(case, template, build, {"Mesh.MeshSizeMin": h, "Mesh.MeshSizeMax": h,
+                                                    "Mesh.MeshSizeFromCurvature": 0, "General.NumThreads": 1})
+
+
+def gmsh_volume_case(case, template, build, options):
+    """An OpenFOAM case (the template's system/, constant/ and 0/) holding
+    Gmsh's Delaunay tet mesh (Frontal-Delaunay surfaces, optimised) of the
+    OCC volume that build(gmsh) adds to a new model; build returns its tag
+    and the model's surfaces by patch ({"wall": [...], "inlet": [...],
+    ...}). `options` are Gmsh's (name -> number). Returns the seconds
+    taken, the polyMesh included."""
+    import gmsh  # Debian python3-gmsh
+
+    case_from_template(case, template)
+    t = time.time()
+    gmsh.initialize(["gmsh", "-nopopup"])
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("volume")
+        vol, groups = build(gmsh)
+        for i, (name, tags) in enumerate(groups.items()):
+            gmsh.model.setPhysicalName(2, gmsh.model.addPhysicalGroup(2, tags, i + 1), name)
+        gmsh.model.setPhysicalName(3, gmsh.model.addPhysicalGroup(3, [vol], len(groups) + 1), "fluid")
+        for name, value in options.items():
+            gmsh.option.setNumber(name, value)
         gmsh.option.setNumber("Mesh.Algorithm", 6)      # Frontal-Delaunay surfaces
         gmsh.option.setNumber("Mesh.Algorithm3D", 1)    # Delaunay
         gmsh.option.setNumber("Mesh.Optimize", 1)
