@@ -1,6 +1,11 @@
 #pragma once
 // Tet mesh improvement, paper section 2.4: flips with the volume criterion,
 // then sliver removal (own design, in the spirit of the paper's tet crushing).
+// The surface's quads and caps: surface_repair.cpp; the flips: flips.cpp;
+// sliver removal: sliver_removal.cpp; the passes for face
+// non-orthogonality and dihedral angles: cell_passes.cpp, their measures
+// cell_measures.cpp; all edit through the tet editor of tet_editor.h, and
+// the flips and sliver removal run in slabs (slab_scheduler.h).
 
 #include "core/adjacency.h"
 #include "core/surface_mesh.h"
@@ -67,13 +72,13 @@ struct FlipCounts {
 // smallest of the three old ones; the 2-3 flips of interior faces and the
 // 4-4 flips of interior edges with four tets that meet the same criterion
 // are made too. The search starts from tets with aspect ratio below 0.3
-// (see the .cpp). Sweeps until nothing flips, at most `sweeps` times.
+// (see flips.cpp). Sweeps until nothing flips, at most `sweeps` times.
 // Surface faces (faces with one tet) are never touched, no point moves, the
 // boundary faces stay the same, every new tet is positively oriented, and
 // the union of the tets is unchanged (so is the total volume, to round-off).
 // mesh.tet_fields are cleared (they no longer match the tets).
 // From 200k tets on, the mesh is cut into up to four slabs (one per 100k
-// tets) improved at once, then the tets near the cuts (the .cpp); the
+// tets) improved at once, then the tets near the cuts (slab_scheduler.h); the
 // result depends on the mesh alone, not on the number of threads.
 FlipCounts flip_volume_criterion(TetMesh& mesh, int sweeps);
 

@@ -305,7 +305,7 @@ TEST(VolumeParallel, ImprovementInSlabsKeepsTheMeshValidAndIsTheSameOnOneOrTwoTh
     VolumeParams params = volume_params(p);
     params.improve = false;
     const VolumeResult raw = build_volume_mesh(p.surface, p.size, params);
-    ASSERT_GE(raw.mesh.tets.size(), 200000u); // two slabs or more (improve.cpp)
+    ASSERT_GE(raw.mesh.tets.size(), 200000u); // two slabs or more (slab_scheduler.cpp)
     const int32_t n = static_cast<int32_t>(p.surface.points.size());
     TetMesh improved[2];
     for (int threads : {1, 2}) {

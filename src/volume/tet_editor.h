@@ -1,0 +1,416 @@
+#pragma once
+// Private to the tet improvement files of src/volume (the passes of
+// improve.h): the incremental tet editor every pass edits through, and the
+// measures and edits more than one pass needs (a tet's orientation and
+// size, OpenFOAM's face non-orthogonality and the shape of a set of tets, a
+// point's move for its star's aspect ratio, an edge split's tets, marks made
+// in parallel).
+
+#include "core/adjacency.h"
+#include "core/tet_mesh.h"
+#include "volume/improve.h"
+#include "volume/quality.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <initializer_list>
+#include <stdexcept>
+#include <vector>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+namespace scalemesh::improvement {
+
+// Up to N values in place: the lists of a flip (the tets around an edge, the
+// new tets) have at most four, and the flips are tried for every poor tet,
+// so they stay off the heap.
+template <class T, int N>
+class Few {
+public:
+    Few() = default;
+    Few(std::initializer_list<T> values)
+    {
+        for (const T& v : values) push_back(v);
+    }
+    void push_back(const T& v) { items_[count_++] = v; }
+    bool full() const { return count_ == N; }
+    size_t size() const { return static_cast<size_t>(count_); }
+    const T& operator[](size_t i) const { return items_[i]; }
+    const T& front() const { return items_[0]; }
+    const T& back() const { return items_[count_ - 1]; }
+    const T* begin() const { return items_.data(); }
+    const T* end() const { return items_.data() + count_; }
+
+private:
+    std::array<T, N> items_{};
+    int count_ = 0;
+};
+
+// The tets as a mutable set with vertex-to-tet lists (dead entries are
+// skipped and dropped lazily), enough for local flips and point moves.
+class TetEditor {
+public:
+    // The incident tets of every point as one flat table (incident_cells);
+    // a point's own list is made from it the first time an edit looks at it
+    // or adds a tet to it. An edit touches few of the points, so the editor
+    // costs two passes over the tets instead of a heap list per point.
+    // The first `locked` tets are never replaced (see replace).
+    explicit TetEditor(TetMesh& mesh, int32_t locked = 0) : mesh_(mesh), tets_(mesh.tets), locked_(locked)
+    {
+        const size_t n = mesh.points.size();
+        alive_.assign(tets_.size(), 1);
+        initial_ = incident_cells(tets_, static_cast<int32_t>(n));
+        incident_.resize(n);
+        own_.assign(n, 0);
+    }
+
+    // Writes the living tets back to the mesh.
+    void commit()
+    {
+        std::vector<Tet> kept;
+        kept.reserve(tets_.size());
+        for (size_t t = 0; t < tets_.size(); ++t)
+            if (alive_[t]) kept.push_back(tets_[t]);
+        mesh_.tets = std::move(kept);
+        mesh_.tet_fields.clear();
+    }
+
+    size_t size() const { return tets_.size(); }
+    size_t point_count() const { return mesh_.points.size(); }
+    bool alive(int32_t t) const { return alive_[t] != 0; }
+    bool locked(int32_t t) const { return t < locked_; }
+    template <class Ids>
+    bool any_locked(const Ids& ids) const
+    {
+        return std::any_of(ids.begin(), ids.end(), [&](int32_t t) { return locked(t); });
+    }
+    const Tet& tet(int32_t t) const { return tets_[t]; }
+    const Vec3& point(int32_t v) const { return mesh_.points[v]; }
+    Vec3& point(int32_t v) { return mesh_.points[v]; }
+    // Removes the point add_point made last (before any tet uses it).
+    void drop_last_point()
+    {
+        mesh_.points.pop_back();
+        incident_.pop_back();
+        own_.pop_back();
+    }
+    int32_t add_point(const Vec3& x)
+    {
+        mesh_.points.push_back(x);
+        incident_.emplace_back();
+        own_.push_back(1); // a new point has no tets in the flat array
+        return static_cast<int32_t>(mesh_.points.size() - 1);
+    }
+
+    // Living tets at v (compacts v's list on the way).
+    const std::vector<int32_t>& at(int32_t v)
+    {
+        auto& list = own_list(v);
+        list.erase(std::remove_if(list.begin(), list.end(), [&](int32_t t) { return !alive_[t]; }), list.end());
+        return list;
+    }
+
+    // The living tets at the edge (a, b), or at the face (a, b, c) when
+    // c >= 0, into `out`; false when there are more than it holds.
+    template <int N>
+    bool tets_at(Few<int32_t, N>& out, int32_t a, int32_t b, int32_t c = -1)
+    {
+        for (int32_t t : at(a))
+            if (contains(tets_[t], b) && (c < 0 || contains(tets_[t], c))) {
+                if (out.full()) return false;
+                out.push_back(t);
+            }
+        return true;
+    }
+
+    std::vector<int32_t> around_edge(int32_t a, int32_t b)
+    {
+        std::vector<int32_t> result;
+        for (int32_t t : at(a))
+            if (contains(tets_[t], b)) result.push_back(t);
+        return result;
+    }
+
+    bool has_edge(int32_t a, int32_t b)
+    {
+        for (int32_t t : at(a))
+            if (contains(tets_[t], b)) return true;
+        return false;
+    }
+
+    bool has_face(int32_t a, int32_t b, int32_t c)
+    {
+        for (int32_t t : at(a))
+            if (contains(tets_[t], b) && contains(tets_[t], c)) return true;
+        return false;
+    }
+
+    double volume6(const Tet& t) const
+    {
+        return tet_volume6(point(t[0]), point(t[1]), point(t[2]), point(t[3]));
+    }
+    double aspect(const Tet& t) const
+    {
+        return tet_aspect_ratio(point(t[0]), point(t[1]), point(t[2]), point(t[3]));
+    }
+
+    // Replaces the tets `old` by `fresh` (all already positively oriented).
+    // A locked tet is never among `old`: every edit checks any_locked first.
+    template <class Old, class Fresh>
+    void replace(const Old& old, const Fresh& fresh)
+    {
+        if (any_locked(old)) throw std::logic_error("TetEditor: an edit would replace a locked tet");
+        for (int32_t t : old) alive_[t] = 0;
+        for (const Tet& t : fresh) {
+            const int32_t id = static_cast<int32_t>(tets_.size());
+            tets_.push_back(t);
+            alive_.push_back(1);
+            for (int32_t v : t) own_list(v).push_back(id);
+        }
+    }
+
+    static bool contains(const Tet& t, int32_t v) { return t[0] == v || t[1] == v || t[2] == v || t[3] == v; }
+
+private:
+    std::vector<int32_t>& own_list(int32_t v)
+    {
+        std::vector<int32_t>& list = incident_[v];
+        if (!own_[v]) {
+            own_[v] = 1;
+            list.reserve(initial_.size(v) + 4);
+            list.assign(initial_.begin(v), initial_.end(v));
+        }
+        return list;
+    }
+
+    TetMesh& mesh_;
+    std::vector<Tet> tets_;
+    int32_t locked_ = 0; // tets [0, locked_) are never replaced, so they keep their ids through commit
+    std::vector<char> alive_;
+    VertexTable initial_;                        // each point's tets when the editor was made
+    std::vector<char> own_;                      // whether incident_[v] holds v's tets (else initial_ does)
+    std::vector<std::vector<int32_t>> incident_;
+};
+
+// The tet (a, b, c, d) reordered to positive orientation, and its volume6
+// (negative when the four points are flat to the tolerance: rejected).
+inline Tet oriented(const TetEditor& ed, int32_t a, int32_t b, int32_t c, int32_t d, double& volume6)
+{
+    volume6 = tet_volume6(ed.point(a), ed.point(b), ed.point(c), ed.point(d));
+    if (volume6 < 0) {
+        volume6 = -volume6;
+        return {a, c, b, d};
+    }
+    return {a, b, c, d};
+}
+
+template <class Tets>
+double longest_edge2(const TetEditor& ed, const Tets& tets)
+{
+    double l2 = 0;
+    for (const Tet& t : tets)
+        for (int i = 0; i < 4; ++i)
+            for (int j = i + 1; j < 4; ++j) l2 = std::max(l2, norm2(ed.point(t[i]) - ed.point(t[j])));
+    return l2;
+}
+
+// Six times the smallest volume a new tet must clearly exceed, beyond the
+// round-off of the size of the tets it replaces.
+template <class Tets>
+double volume_floor6(const TetEditor& ed, const Tets& tets)
+{
+    const double l2 = longest_edge2(ed, tets);
+    return 1e-12 * l2 * std::sqrt(l2);
+}
+
+// The cosine of OpenFOAM's non-orthogonality of the face of tet t opposite
+// its corner k, shared with the tet `other`: the face's normal (out of t)
+// against the join of the two centroids, points read through at(id); -2
+// (below any cosine) when the face or the join is degenerate. The one
+// measure of the cell passes (cell_passes.cpp) and of points_missing_floors.
+template <class At>
+double face_cosine(const At& at, const Tet& t, int k, const Tet& other)
+{
+    const auto centre = [&](const Tet& x) { return 0.25 * (at(x[0]) + at(x[1]) + at(x[2]) + at(x[3])); };
+    const Vec3& a = at(t[(k + 1) % 4]);
+    Vec3 normal = cross(at(t[(k + 2) % 4]) - a, at(t[(k + 3) % 4]) - a);
+    if (dot(normal, at(t[k]) - a) > 0) normal = -normal; // out of t
+    const Vec3 join = centre(other) - centre(t);
+    const double scale = norm(normal) * norm(join);
+    return scale > 0 ? dot(normal, join) / scale : -2;
+}
+
+// face_cosine of the face tets t and `other` share, t's corner off it found.
+template <class At>
+double shared_face_cosine(const At& at, const Tet& t, const Tet& other)
+{
+    int k = 0;
+    while (TetEditor::contains(other, t[k])) ++k;
+    return face_cosine(at, t, k, other);
+}
+
+// An interior face of tets[i] (the face opposite its corner k) and the tet
+// across it: tets[inside] when inside >= 0, else the living tet `outside`.
+struct FaceLink {
+    int i, k, inside;
+    int32_t outside;
+};
+
+// The interior faces of `tets`, as if the tets with the ids `old` were
+// replaced by them: a face's other tet is one of `tets` or a living tet not
+// in `old`; a face with none (the boundary) is left out, as OpenFOAM checks
+// internal faces only.
+template <class Tets, class Old>
+std::vector<FaceLink> face_links(TetEditor& ed, const Tets& tets, const Old& old)
+{
+    const auto has_face = [](const Tet& t, int32_t a, int32_t b, int32_t c) {
+        return TetEditor::contains(t, a) && TetEditor::contains(t, b) && TetEditor::contains(t, c);
+    };
+    std::vector<FaceLink> links;
+    for (size_t i = 0; i < tets.size(); ++i) {
+        const Tet& t = tets[i];
+        for (int k = 0; k < 4; ++k) {
+            const int32_t a = t[(k + 1) % 4], b = t[(k + 2) % 4], d = t[(k + 3) % 4];
+            FaceLink link{static_cast<int>(i), k, -1, -1};
+            for (size_t j = 0; j < tets.size() && link.inside < 0; ++j)
+                if (j != i && has_face(tets[j], a, b, d)) link.inside = static_cast<int>(j);
+            if (link.inside < 0)
+                for (int32_t u : ed.at(a))
+                    if (has_face(ed.tet(u), a, b, d) && std::find(old.begin(), old.end(), u) == old.end()) {
+                        link.outside = u;
+                        break;
+                    }
+            if (link.inside >= 0 || link.outside >= 0) links.push_back(link);
+        }
+    }
+    return links;
+}
+
+// The smallest cosine of OpenFOAM's face non-orthogonality (the angle
+// between an interior face's normal and the join of its two tets'
+// centroids, the cell centres of a tet) over the faces `links` of `tets`,
+// with the points where they are now. -1 when a join or a face is degenerate.
+template <class Tets>
+double worst_cosine(const TetEditor& ed, const Tets& tets, const std::vector<FaceLink>& links)
+{
+    double worst = 1;
+    const auto at = [&](int32_t v) -> const Vec3& { return ed.point(v); };
+    for (const FaceLink& link : links) {
+        const Tet& other = link.inside >= 0 ? tets[link.inside] : ed.tet(link.outside);
+        const double cosine = face_cosine(at, tets[link.i], link.k, other);
+        if (cosine < -1.5) return -1;
+        worst = std::min(worst, cosine);
+    }
+    return worst;
+}
+
+// What a change for face non-orthogonality must keep: the smallest aspect
+// ratio and dihedral angle of the tets it makes not below the floors (or
+// below the old tets' own, where those already are).
+struct OrthoFloors {
+    double aspect = 0.1;   // dimensionless
+    double dihedral = 10;  // degrees
+    double ortho = 70;     // degrees: a change for the dihedral angles leaves no new face beyond it
+};
+
+// The worst of a set of tets by each measure: the smallest face cosine
+// (worst_cosine), aspect ratio and dihedral angle (degrees).
+struct Shape {
+    double cosine = 1, aspect = 1e300, dihedral = 1e300;
+};
+
+template <class Tets>
+Shape shape_of(const TetEditor& ed, const Tets& tets, const std::vector<FaceLink>& links)
+{
+    Shape s;
+    for (size_t i = 0; i < tets.size(); ++i) {
+        const Tet& t = tets[i];
+        s.aspect = std::min(s.aspect, ed.aspect(t));
+        s.dihedral = std::min(s.dihedral, tet_min_dihedral_deg(ed.point(t[0]), ed.point(t[1]), ed.point(t[2]),
+                                                               ed.point(t[3])));
+    }
+    if (!(s.aspect > 0)) return s;
+    s.cosine = worst_cosine(ed, tets, links);
+    return s;
+}
+
+// Whether `after` is better for orthogonality than `before` and keeps the floors.
+inline bool ortho_better(const Shape& before, const Shape& after, const OrthoFloors& floors)
+{
+    return after.aspect > 0 && after.cosine > before.cosine + 1e-9 &&
+           after.aspect >= std::min(before.aspect, floors.aspect) &&
+           after.dihedral >= std::min(before.dihedral, floors.dihedral);
+}
+
+// Whether `after` has a larger smallest dihedral angle than `before` and
+// keeps the aspect-ratio floor and the non-orthogonality bound (or the old
+// tets' own, where those already miss them).
+inline bool dihedral_better(const Shape& before, const Shape& after, const OrthoFloors& floors)
+{
+    const double bound = std::cos(floors.ortho * M_PI / 180);
+    return after.aspect > 0 && after.dihedral > before.dihedral + 1e-6 &&
+           after.aspect >= std::min(before.aspect, floors.aspect) &&
+           after.cosine >= std::min(before.cosine, bound) - 1e-12;
+}
+
+// Marks [begin, end) by is_marked(t), in parallel: the marks are read by
+// sequential loops, which then decide as if they had asked in turn.
+template <class IsMarked>
+std::vector<char> parallel_marks(size_t begin, size_t end, IsMarked&& is_marked)
+{
+    std::vector<char> marks(end - begin, 0);
+    tbb::parallel_for(tbb::blocked_range<size_t>(begin, end, 1 << 13), [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t t = range.begin(); t != range.end(); ++t) marks[t - begin] = is_marked(t);
+    });
+    return marks;
+}
+
+// Whether each tet of [begin, end) is alive with aspect ratio below `below`.
+inline std::vector<char> below_marks(const TetEditor& ed, size_t begin, size_t end, double below)
+{
+    return parallel_marks(begin, end, [&](size_t t) {
+        const auto id = static_cast<int32_t>(t);
+        return ed.alive(id) && ed.aspect(ed.tet(id)) < below;
+    });
+}
+
+// x, or for a layer point (slack > 0) the nearest place within its slack of
+// its home: on its layer and on its node's normal; for a point held on its
+// normal (on_normal), the nearest place on that segment.
+Vec3 within_layer(const LayerBound& layer, const Vec3& x);
+
+// The central-difference gradient, step h, of `measure` (of the mesh as it
+// is) in the position of point v; v is put back where it was.
+template <class Measure>
+Vec3 point_gradient(TetEditor& ed, int32_t v, double h, Measure&& measure)
+{
+    const Vec3 origin = ed.point(v);
+    Vec3 gradient;
+    for (int axis = 0; axis < 3; ++axis) {
+        Vec3 plus = origin, minus = origin;
+        plus[axis] += h;
+        minus[axis] -= h;
+        ed.point(v) = plus;
+        const double up = measure();
+        ed.point(v) = minus;
+        gradient[axis] = (up - measure()) / (2 * h);
+    }
+    ed.point(v) = origin;
+    return gradient;
+}
+
+// Moves interior point v to raise the smallest aspect ratio of its star. A
+// star holding a nearly flat tet (aspect ratio 1e-11 in a flat slab, where
+// the layer points of two wall nodes and the nodes lie in one plane) is the
+// one most in need of a move; a new position must beat the old smallest
+// aspect ratio by 1e-9, so it never keeps a tet flatter than that.
+bool smooth_point(TetEditor& ed, int32_t v, const LayerBound& layer = {});
+
+// The tets of `around`, which all hold the edge (p, q), split at the point m
+// on that edge: each gives one copy with p replaced by m and one with q.
+std::vector<Tet> split_at(TetEditor& ed, const std::vector<int32_t>& around, int32_t p, int32_t q, int32_t m);
+
+} // namespace scalemesh::improvement
