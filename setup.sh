@@ -92,7 +92,7 @@ case "${1:-run}" in
     # at M = 5 ... 28 against a Richardson-extrapolated reference; regenerates
     # its own section of docs/validation.md and validation/curved_results.json,
     # curved.png (about 20 minutes on 2 cores, most of it the M = 28 bend).
-    for p in python3-gmsh gnuplot-nox; do
+    for p in python3-gmsh gnuplot-nox python3-netgen; do
       dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || {
         apt-get update -qq
         DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "$p" >/dev/null
@@ -106,17 +106,18 @@ case "${1:-run}" in
     # several M, against Gmsh (uniform, and sized from curvature), CGAL
     # Mesh_3 (uniform, and sized from the centreline's radius; its tool is
     # built here, outside the default build) and, on the stepped tube,
-    # snappyHexMesh with a refinement level per segment; each run merged
+    # snappyHexMesh with a refinement level per segment, and Netgen sized
+    # from the STL's curvature with 3 prism layers; each run merged
     # into validation/multiscale_results.json as it ends, then the sections
     # of docs/validation.md and docs/multiscale.png regenerated from it.
     cmake --build "$build" --target mesh3_surface
     /usr/bin/python3 validation/multiscale_validation.py --scalemesh "$build/src/cli/scalemesh" \
       --mesh3-surface "$build/validation/mesh3_surface" --M 5 7 10 14 --layers delaunay prisms --gmsh-h 0.8 \
-      --gmsh-curvature 20 32 --snappy 8 12 --mesh3-h 0.8 --mesh3-radius 0.4 0.3 \
+      --gmsh-curvature 20 32 --snappy 8 12 --mesh3-h 0.8 --mesh3-radius 0.4 0.3 0.2 --netgen-curvature 4 6 \
       --workdir "$build/multiscale-stepped" --out validation
     /usr/bin/python3 validation/multiscale_validation.py --scalemesh "$build/src/cli/scalemesh" \
       --mesh3-surface "$build/validation/mesh3_surface" --geometry tree --M 5 7 10 --layers delaunay prisms \
-      --gmsh-h 0.5 --gmsh-curvature 16 24 --mesh3-h 0.6 --mesh3-radius 0.4 0.3 \
+      --gmsh-h 0.5 --gmsh-curvature 16 24 --mesh3-h 0.6 --mesh3-radius 0.4 0.3 --netgen-curvature 4 6 \
       --workdir "$build/multiscale-tree" --out validation --doc docs/validation.md --plot docs/multiscale.png
     ;;
   *)

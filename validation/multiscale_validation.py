@@ -168,6 +168,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from common import (REPO, cpu_model, log, run, solve, latest_time, internal_field,  # noqa: E402
                     patch_field, boundary_faces, read_polymesh, replace_section, snappy_tube)
 from tube_validation import case_from_template, cells_for, foam_from_msh, gmsh_volume_case  # noqa: E402
+from netgen_peer import netgen_case  # noqa: E402
 
 NU = 1e-3           # m^2/s, as tube_validation.py
 U_IN = 0.05         # m/s over the 8 mm inlet: Q = 2.5e-6 m^3/s, Re = 3.2 in the 1 mm segment
@@ -210,11 +211,13 @@ MESHERS = {
     "mesh3": ("CGAL Mesh_3, uniform", "size bound everywhere (mm): edges, surface balls, tet circumradii", "h"),
     "mesh3-radius": ("CGAL Mesh_3, sized from the radius",
                      "size bound as a fraction of the local radius, from the centreline", "F"),
+    "netgen-curvature": ("Netgen, sized from curvature, 3 prism layers",
+                         "h <= r / F along the STL's curvature (about 2 pi F elements around)", "F"),
 }
 # The keys of the results file's summary: each mesher's name and setting.
 SUMMARY_NAMES = {"scalemesh": "scalemesh", "scalemesh-prisms": "scalemesh prisms", "gmsh": "gmsh uniform",
                  "gmsh-curvature": "gmsh curvature", "snappy": "snappyhexmesh levels", "mesh3": "mesh_3 uniform",
-                 "mesh3-radius": "mesh_3 radius field"}
+                 "mesh3-radius": "mesh_3 radius field", "netgen-curvature": "netgen curvature"}
 QUICK_ITERATIONS = 500
 QUICK_M = 7                        # --quick: scalemesh at this M
 QUICK_WSS = 0.05                   # --quick: every branch's mean WSS within 5% of Hagen-Poiseuille
@@ -223,6 +226,7 @@ AS_GOOD = 1.25                     # a ratio below which two figures are "about 
 GOAL = 3.0                         # scalemesh's goal: this many times fewer cells than every peer
 LINE_ANGLES = [0, 45, 90, 135]     # degrees from x of the diameter lines counted in each cross-section
 LINE_OFFSET = 0.0123               # their distance from the axis, in radii: off any symmetry of the mesh
+NETGEN_MAXH = 0.25                 # Netgen's size bound, in inlet diameters: loose, so curvature sets the size
 PLANE_OFFSET = 0.0217              # the cross-section's distance from the middle, in radii: off a hex mesh's faces
 
 
@@ -926,6 +930,24 @@ def summary_table(results):
     return "\n".join(rows)
 
 
+def across_table(results):
+    """The Markdown table of the cells across each diameter: one row per
+    mesh, one column per diameter (the mean over the branches of that
+    diameter)."""
+    ok = done(results)
+    ds = sorted({round(s["diameter_mm"], 6) for r in ok for s in r["segments"]}, reverse=True)
+    rows = ["| mesher | parameter | cells | %s |" % " | ".join("%.3g mm" % d for d in ds),
+            "|---|---|---|%s" % ("---|" * len(ds))]
+    for r in ok:
+        cols = []
+        for d in ds:
+            n = [s["cells_across"] for s in r["segments"] if abs(s["diameter_mm"] - d) < 1e-6 * d]
+            cols.append("%.1f" % (sum(n) / len(n)))
+        rows.append("| %s | %s %g | %d | %s |" % (MESHERS[r["mesher"]][0], MESHERS[r["mesher"]][2], r["parameter"],
+                                                r["cells"], " | ".join(cols)))
+    return "\n".join(rows)
+
+
 def describe_cells(value, how):
     """A summary figure in words."""
     if value is None:
@@ -977,6 +999,17 @@ def claim(results, piece, pieces):
     lines.append("The mesh's cross-section against the circle's, over the %s: %s." % (pieces, "; ".join(
         "%s %+.2f%% to %+.2f%%" % (name(r), 100 * min(s["cross_section_error"] for s in r["segments"]),
                                    100 * max(s["cross_section_error"] for s in r["segments"])) for r in results)))
+    if own:
+        lines.append("Cells across a diameter (each layer or cell counted once), lowest to highest over the %s: %s."
+                     % (pieces, "; ".join(
+                         "%s %.1f to %.1f (%s M +- 1)" % (
+                             name(r), min(s["cells_across"] for s in r["segments"]),
+                             max(s["cells_across"] for s in r["segments"]),
+                             "within" if all(abs(s["cells_across"] - r["parameter"]) <= 1 for s in r["segments"])
+                             else "not all within") for r in own)
+                         + "; the peers: " + "; ".join(
+                         "%s %.1f to %.1f" % (name(r), min(s["cells_across"] for s in r["segments"]),
+                                             max(s["cells_across"] for s in r["segments"])) for r in peers)))
     for percent in (1, 2):
         found = cells_for_worst(results, percent / 100)
         lines.append("Cells for a worst %s within %d%% (WSS): %s." % (piece, percent, "; ".join(
@@ -1027,9 +1060,9 @@ def doc_section(g, plot_path=None):
     ).format(description=geometry.description(), triangles=g["stl_triangles"], around=g["curvature_elements"],
              nu=g["nu"], u=g["inlet_speed"], d0=max(ds), d1=min(ds), re_min=min(reynolds), re_max=max(reynolds),
              piece=geometry.piece)
-    if {"mesh3", "mesh3-radius"} & set(peers):
-        intro += (" CGAL Mesh_3 gets the same triangulation ending at the openings (the others' STL runs on past "
-                  "them).")
+    if {"mesh3", "mesh3-radius", "netgen-curvature"} & set(peers):
+        intro += (" CGAL Mesh_3 and Netgen get the same triangulation ending at the openings (the others' STL "
+                  "runs on past them).")
     legend = "\n".join(["| mesher | parameter | meaning |", "|---|---|---|"]
                        + ["| %s | %s | %s |" % (MESHERS[m][0], MESHERS[m][2], MESHERS[m][1])
                           for m in MESHERS if any(r["mesher"] == m for r in results)])
@@ -1048,7 +1081,8 @@ def doc_section(g, plot_path=None):
              + [fill(line) for line in claim(results, geometry.piece, geometry.pieces).split("\n\n")]
              + (["![Worst %s's WSS error against cells, per mesher](%s)" % (geometry.piece, plot_path)]
                 if plot_path else [])
-             + [legend, summary_table(results), table(results), "## Rerun",
+             + [legend, summary_table(results), "Cells across each diameter:", across_table(results),
+                table(results), "## Rerun",
                 "```sh\n%s\n```" % "\n".join(commands), fill(run_note), end])
     return "\n\n".join(parts)
 
@@ -1237,6 +1271,9 @@ def main():
                     help="CGAL Mesh_3 peer: every size bound H mm (default: none)")
     ap.add_argument("--mesh3-radius", type=float, nargs="*", default=[], metavar="F",
                     help="CGAL Mesh_3 peer sized from the centreline: size F times the local radius (default: none)")
+    ap.add_argument("--netgen-curvature", type=float, nargs="*", default=[], metavar="F",
+                    help="Netgen peer (validation/netgen_peer.py, Debian python3-netgen): sizes from the STL's "
+                    "curvature, h <= r / F, 3 prism layers on the wall (default: none)")
     ap.add_argument("--mesh3-surface", default=os.path.join(REPO, "build", "validation", "mesh3_surface"),
                     help="the mesh3_surface binary (default: %(default)s)")
     ap.add_argument("--quick", action="store_true",
@@ -1298,7 +1335,8 @@ def main():
     only = set(args.only or ["scalemesh"] + list(MESHERS))
     peer_params = [(m, p) for m, ps in (("gmsh", args.gmsh_h), ("gmsh-curvature", args.gmsh_curvature),
                                         ("snappy", args.snappy), ("mesh3", args.mesh3_h),
-                                        ("mesh3-radius", args.mesh3_radius)) if m in only for p in ps]
+                                        ("mesh3-radius", args.mesh3_radius),
+                                        ("netgen-curvature", args.netgen_curvature)) if m in only for p in ps]
     if {"mesh3", "mesh3-radius"} & {m for m, _ in peer_params} and not os.access(args.mesh3_surface, os.X_OK):
         sys.exit("no mesh3_surface binary at %s: build it with `cmake --build build --target mesh3_surface` "
                  "(it is not in the default target), or pass --mesh3-surface" % args.mesh3_surface)
@@ -1318,7 +1356,7 @@ def main():
                "nu": NU, "inlet_speed": U_IN, "max_iterations": iterations,
                "diameters_mm": sorted({b["diameter"] for b in geometry.branches()}, reverse=True)}
     stl_exact = os.path.join(workdir, "between-openings.stl")
-    if {"mesh3", "mesh3-radius"} & {m for m, _ in peer_params}:
+    if {"mesh3", "mesh3-radius", "netgen-curvature"} & {m for m, _ in peer_params}:
         write_surface_stl(geometry, stl_exact, elements, margins=False)
     log("%s: diameters %s mm, %d STL triangles (%d around)"
         % (geometry.title, " / ".join("%.3g" % d for d in surface["diameters_mm"]), triangles, elements))
@@ -1363,6 +1401,8 @@ def main():
         "mesh3-radius": lambda f, case: (mesh3_case(geometry, args.mesh3_surface,
                                                     mesh3_sizes(geometry, "mesh3-radius", f), case, template,
                                                     stl_exact), {}),
+        "netgen-curvature": lambda f, case: netgen_case(stl_exact, geometry.openings(), case, template,
+                                                        NETGEN_MAXH * geometry.inlet_diameter, curvature=f),
     }
     for mesher, param in peer_params:
         case = os.path.join(workdir, "%s-%s%g" % (mesher, MESHERS[mesher][2], param))
