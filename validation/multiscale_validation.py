@@ -1106,7 +1106,8 @@ def plot(data, png, workdir):
             with open(path, "w") as f:
                 for r in runs:
                     f.write("%d %g\n" % (r["cells"], max(100 * worst(r), 1e-3)))
-            curves.append("'%s' u 1:2 w lp pt %d lw 2 t \"%s\"" % (path, 4 + 2 * i, MESHERS[mesher][0]))
+            curves.append("'%s' u 1:2 w lp pt %d lc %d lw 2 t \"%s\"" % (path, 4 + 2 * i, i + 1,
+                                                                         MESHERS[mesher][0]))
         panels.append('set title "%s"\nplot %s, 1 w l dt 2 lc "black" t "1%%", 2 w l dt 3 lc "black" t "2%%"'
                       % (GEOMETRIES[name].title, ", ".join(curves)))
     script = """
@@ -1140,12 +1141,16 @@ def load_results(path):
     return {"geometries": {}, "summary": {}}
 
 
-def add_run(data, surface, run):
+def add_run(data, surface, run, drop_other_surface=True):
     """Puts `run` into the geometry entry of `data` whose surface is
     `surface` (geometry, triangles, flow settings), replacing a run of the
-    same mesher and parameter; an entry of another surface is dropped."""
+    same mesher and parameter; an entry of another surface is dropped (or,
+    without drop_other_surface, refused)."""
     g = data["geometries"].get(surface["geometry"])
     if g is None or any(g.get(k) != v for k, v in surface.items()):
+        if g is not None and not drop_other_surface:
+            raise SystemExit("%s: the runs to merge are on another surface or flow than those there (%s); nothing "
+                             "merged" % (surface["geometry"], ", ".join(k for k, v in surface.items() if g.get(k) != v)))
         if g is not None:
             log("%s: its runs were on another surface or flow; dropped" % surface["geometry"])
         g = data["geometries"][surface["geometry"]] = dict(surface, runs=[])
@@ -1295,11 +1300,16 @@ def main():
     ap.add_argument("--from-json", metavar="PATH",
                     help="run nothing: the sections (and --plot) from this results file, into --doc or, without "
                     "it, to stdout")
+    ap.add_argument("--merge", nargs="+", metavar="PATH",
+                    help="run nothing: merge the runs of these results files into OUT's (a run replaces one of the "
+                    "same mesher and parameter), then write --doc and --plot from it")
     ap.add_argument("--committed", default=os.path.join(REPO, "validation", RESULTS_NAME),
                     help="the results to compare scalemesh's cells for a worst branch within 1%% and 2%% with "
                     "(default: %(default)s)")
     args = ap.parse_args()
     # The cases run in their own directories: every path absolute.
+    if args.merge:
+        args.merge = [os.path.abspath(path) for path in args.merge]
     for name in ("scalemesh", "workdir", "out", "doc", "plot", "mesh3_surface", "from_json", "committed"):
         value = getattr(args, name)
         if value and (name != "scalemesh" or os.sep in value):  # a bare name is looked up on PATH
@@ -1324,6 +1334,22 @@ def main():
 
     if args.from_json:
         write_outputs(load_results(args.from_json))
+        return 0
+    if args.merge:
+        results_path = os.path.join(args.out, RESULTS_NAME)
+        data = load_results(results_path)
+        for path in args.merge:
+            other = load_results(path)
+            if not other["geometries"]:
+                raise SystemExit("%s holds no runs" % path)
+            for g in other["geometries"].values():
+                surface = {k: v for k, v in g.items() if k != "runs"}
+                for r in g["runs"]:
+                    add_run(data, surface, r, drop_other_surface=False)
+            log("merged the runs of %s into %s" % (path, results_path))
+        save_results(results_path, data)
+        if args.doc or args.plot:
+            write_outputs(data)
         return 0
 
     geometry = GEOMETRIES[args.geometry or "stepped"]

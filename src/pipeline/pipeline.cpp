@@ -232,10 +232,11 @@ std::string units_warning(const SurfaceMesh& surface, const CaseConfig& config)
 // A surface that crosses itself is refused before any stage runs on it:
 // the feature size falls to nothing at the crossing and remeshing would
 // refine there without end.
-void require_no_self_intersections(const SurfaceMesh& surface, const std::string& what)
+// Where `surface` crosses itself, in words ("" where it does not).
+std::string crossing_text(const SurfaceMesh& surface, const std::string& what)
 {
     const SelfIntersections crossing = self_intersections(surface, 1);
-    if (crossing.pairs == 0) return;
+    if (crossing.pairs == 0) return "";
     const auto centre = [&](int32_t t) {
         const Triangle& f = surface.triangles[t];
         return (surface.points[f[0]] + surface.points[f[1]] + surface.points[f[2]]) / 3;
@@ -244,9 +245,15 @@ void require_no_self_intersections(const SurfaceMesh& surface, const std::string
     std::ostringstream msg;
     msg << what << " intersects itself: " << crossing.pairs << (crossing.pairs == 1 ? " pair" : " pairs")
         << " of triangles cross, the first near (" << where.x << ", " << where.y << ", " << where.z << ") mm";
-    throw InputError(msg.str(), "a surface that crosses itself encloses no one region to mesh; remove the overlapping "
-                                "or duplicated parts, or repair the crossings (a self-intersection repair such as "
-                                "MeshLab's or meshfix), and re-run");
+    return msg.str();
+}
+
+void require_no_self_intersections(const SurfaceMesh& surface, const std::string& what)
+{
+    if (const std::string crossing = crossing_text(surface, what); !crossing.empty())
+        throw InputError(crossing, "a surface that crosses itself encloses no one region to mesh; remove the "
+                                   "overlapping or duplicated parts, or repair the crossings (a self-intersection "
+                                   "repair such as MeshLab's or meshfix), and re-run");
 }
 
 // Reads a surface file into `surface`, closed and oriented outwards. Labelled
@@ -730,6 +737,14 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
                                .L_max = run.L_max,
                                .prism_columns = config.layers == LayerMode::prisms ? &volume.rim_columns : nullptr});
             }
+            // The remeshed surface is checked as the input was: a fold the
+            // remeshing left would give a volume mesh of no one region (or a
+            // later stage's error about something else).
+            if (const std::string crossing = crossing_text(run.remeshed->surface, "the remeshed surface");
+                !crossing.empty())
+                throw StageError("remeshing", crossing + "; a surface that crosses itself encloses no one region. "
+                                                         "Another M or K remeshes it differently; if that does "
+                                                         "not help, report the case");
             const SurfaceFacts facts = surface_facts(run.remeshed->surface);
             std::ostringstream summary;
             summary << run.remeshed->merges << " merges, " << run.remeshed->swaps << " swaps, "

@@ -226,8 +226,15 @@ Check Criteria::swap(const HalfedgeMesh& mesh, const std::vector<double>& d, int
     check.damage = std::max(std::abs(dot(m - xc, n1)), std::abs(dot(m - xc, n2)));
     if (!(check.damage < check.toldamage)) return reject(Verdict::damage);
 
-    const Vec3 patch = cross(xb - xa, xc - xa) + cross(xa - xb, xe - xb);
+    const Vec3 old1 = cross(xb - xa, xc - xa), old2 = cross(xa - xb, xe - xb);
+    const Vec3 patch = old1 + old2;
     if (dot(n1, patch) <= 0 || dot(n2, patch) <= 0) return reject(Verdict::fold);
+    // Each new normal within a right angle of each old one too: where the
+    // two old triangles already meet at a crease sharper than that (as
+    // where a branch leaves its parent), their sum says little, and the
+    // swap can lay a new triangle over the fan beside it.
+    if (dot(n1, old1) <= 0 || dot(n1, old2) <= 0 || dot(n2, old1) <= 0 || dot(n2, old2) <= 0)
+        return reject(Verdict::fold);
     // With the origin at x_c only the old triangle (b, a, e) adds volume.
     check.volume_change = -dot(xb - xc, cross(xa - xc, xe - xc)) / 6;
     return check;
@@ -246,6 +253,20 @@ Check check_merge(const SurfaceMesh& surface, const std::vector<double>& d, int3
                          "merge a point into one of its neighbours");
     Criteria criteria(params);
     return criteria.merge(mesh, d, nullptr, h);
+}
+
+Check check_swap(const SurfaceMesh& surface, const std::vector<double>& d, int32_t a, int32_t b,
+                 const RemeshParams& params)
+{
+    const auto n = static_cast<int32_t>(surface.points.size());
+    if (a < 0 || b < 0 || a >= n || b >= n || d.size() != surface.points.size())
+        throw InputError("check_swap needs two point indices and one d per point", "");
+    const HalfedgeMesh mesh(surface);
+    const int32_t h = mesh.vertex_alive(a) ? mesh.find_halfedge(a, b) : -1;
+    if (h < 0)
+        throw InputError("points " + std::to_string(a) + " and " + std::to_string(b) + " are not joined by an edge",
+                         "swap an edge of the surface");
+    return Criteria(params).swap(mesh, d, h);
 }
 
 } // namespace scalemesh::remeshing

@@ -96,4 +96,10 @@ private:
 Check check_merge(const SurfaceMesh& surface, const std::vector<double>& d, int32_t i, int32_t j,
                   const RemeshParams& params);
 
+// The swap test on a plain surface, for tests: swapping the edge from point
+// a to point b (an edge of `surface`, a closed, oriented 2-manifold).
+// Throws InputError when a and b are not joined by an edge.
+Check check_swap(const SurfaceMesh& surface, const std::vector<double>& d, int32_t a, int32_t b,
+                 const RemeshParams& params);
+
 } // namespace scalemesh::remeshing

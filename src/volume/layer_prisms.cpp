@@ -310,6 +310,24 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
         return dot(n, d) / (norm(n) * norm(d));
     };
 
+    // The skewness of face k of tet t (OpenFOAM's faceSkewness): the face
+    // centre's offset from where the join of the two cells' centres
+    // crosses the face, over the face's extent in that direction (at least
+    // a fifth of the join).
+    const auto face_skewness = [&](int32_t t, int k) {
+        const Triangle f = tet_face(mesh.tets[t], k);
+        const Vec3 &p = mesh.points[f[0]], &q = mesh.points[f[1]], &r = mesh.points[f[2]];
+        const Vec3 centre_f = (p + q + r) / 3, area = cross(q - p, r - p);
+        const Vec3 from = centroid(t);
+        const Vec3 d = centre(cell[adjacency.across[4 * t + k]]) - from;
+        const Vec3 to_face = centre_f - from;
+        const Vec3 offset = to_face - (dot(area, to_face) / (dot(area, d) + 1e-300)) * d;
+        const Vec3 along = offset / (norm(offset) + 1e-300);
+        double extent = 0.2 * norm(d) + 1e-300;
+        for (const Vec3* x : {&p, &q, &r}) extent = std::max(extent, std::abs(dot(along, *x - centre_f)));
+        return norm(offset) / extent;
+    };
+
     // The poor tet cells, worst dihedral angle first; the tets looked at in
     // parallel, as marks a sequential loop then collects.
     std::vector<char> is_poor(tets, 0);
@@ -322,7 +340,9 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
             bool bad = tet_min_dihedral_deg(a, b, c, d) < bounds.min_dihedral_deg ||
                        tet_aspect_ratio(a, b, c, d) < bounds.min_aspect_ratio;
             for (int k = 0; k < 4 && !bad; ++k)
-                if (adjacency.across[4 * t + k] >= 0 && !(face_cosine(t, k, centroid(t)) > min_cosine)) bad = true;
+                if (adjacency.across[4 * t + k] >= 0 &&
+                    (!(face_cosine(t, k, centroid(t)) > min_cosine) || !(face_skewness(t, k) <= bounds.max_skewness)))
+                    bad = true;
             is_poor[i] = bad;
         }
     });

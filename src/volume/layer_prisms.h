@@ -60,11 +60,14 @@ LayerPrismCells layer_prism_cells(const TetMesh& mesh, const TetFaceAdjacency& a
 // angle below `min_dihedral_deg` (slivers,
 // such as those the core's tets leave in a shallow crease of the layers'
 // top, where no flip can reach), or a face to another cell beyond
-// `max_non_orthogonality_deg` from the join of the two cells' centroids.
+// `max_non_orthogonality_deg` from the join of the two cells' centroids or
+// skewed beyond `max_skewness` (the face centre's offset from where that
+// join crosses it, over the face's extent that way, as checkMesh has it).
 struct PoorTetBounds {
     double min_aspect_ratio = 0.1; // tet_aspect_ratio (quality.h)
     double min_dihedral_deg = 10;
     double max_non_orthogonality_deg = 68;
+    double max_skewness = 3.5; // a face's skewness as checkMesh measures it (checkMesh fails beyond 4)
     int32_t max_cell_tets = 7; // no cell grows beyond this many tets (7: a sliver and two prisms)
 };
 

@@ -317,6 +317,46 @@ TEST(RemeshDamage, MergeAlongACreaseIsAcceptedAndAcrossItRejected)
     EXPECT_LT(flat.damage, 1e-12);
 }
 
+// Where two triangles meet at a crease sharper than a right angle (found
+// where a branch of a bifurcating tree leaves its parent), swapping their
+// edge passed every old test: the smallest angle grew (0.17 to 0.43 rad),
+// the damage stayed below K/(30M) d and each new normal lay within a right
+// angle of the sum of the old ones; yet each new triangle faced away from
+// one of the old ones and lay over the fan beside it, and the remeshed
+// surface crossed itself. The swap is refused as a fold.
+TEST(RemeshFold, SwapAcrossACreaseSharperThanARightAngleIsRefused)
+{
+    SurfaceMesh mesh;
+    // Old triangles (a, b, c) and (b, a, e) on edge a - b; apex z closes the
+    // surface below, with no edge c - e.
+    const Vec3 a{0, 0, 0}, b{0.0254, -0.18854, -0.4354}, c{0.59729, 0.19425, -0.7517}, e{0.0193, 1.18832, 0.6351};
+    const Vec3 patch = cross(b - a, c - a) + cross(a - b, e - b);
+    const Vec3 z = (a + b + c + e) / 4 - normalized(patch);
+    mesh.points = {a, b, c, e, z};
+    mesh.triangles = {{0, 1, 2}, {1, 0, 3}, {2, 1, 4}, {0, 2, 4}, {3, 0, 4}, {1, 3, 4}};
+    ASSERT_TRUE(surface_facts(mesh).closed_manifold());
+    RemeshParams params;
+    params.K = 4.2;
+    params.M = 5;
+    const std::vector<double> d(mesh.points.size(), 3.6); // target 3.02 mm, toldamage 0.1 mm
+    // What the old tests saw: both new normals within a right angle of the
+    // old ones' sum.
+    const Vec3 n1 = cross(a - c, e - c), n2 = cross(b - e, c - e);
+    ASSERT_GT(dot(n1, patch), 0);
+    ASSERT_GT(dot(n2, patch), 0);
+    // Each new triangle faces away from one of the old ones.
+    EXPECT_LT(dot(n1, cross(b - a, c - a)), 0);
+    EXPECT_EQ(remeshing::check_swap(mesh, d, 0, 1, params).verdict, remeshing::Verdict::fold);
+
+    // A flat quad of the same shape of connections swaps: its long edge
+    // a - b gives way to the short c - e.
+    SurfaceMesh flat = mesh;
+    flat.points = {{0, -1, 0}, {0, 1, 0}, {-0.4, 0, 0}, {0.4, 0, 0}, {0, 0, -1}};
+    ASSERT_TRUE(surface_facts(flat).closed_manifold());
+    ASSERT_GT(signed_volume(flat), 0);
+    EXPECT_EQ(remeshing::check_swap(flat, d, 0, 1, params).verdict, remeshing::Verdict::accepted);
+}
+
 TEST(RemeshTopology, MergesRefuseToCollapseATetrahedronOrPinchAHandle)
 {
     SurfaceMesh tet;
