@@ -160,6 +160,7 @@ import re
 import shutil
 import subprocess
 import sys
+import tempfile
 import textwrap
 import time
 
@@ -1319,8 +1320,8 @@ def main():
 
     def write_outputs(data):
         if args.plot:
-            plot(data, args.plot, os.path.join(args.out if not args.from_json else os.path.dirname(args.plot),
-                                               "plot-data"))
+            with tempfile.TemporaryDirectory() as scratch:  # gnuplot's data files
+                plot(data, args.plot, scratch)
         names = [args.geometry] if args.geometry and args.from_json else sorted(data["geometries"])
         for name in names:
             if name not in data["geometries"]:
