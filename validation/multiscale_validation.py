@@ -678,6 +678,8 @@ def crossing(ps, y, z, half):
     half-open (two of its edges in, one out), so that a line through an
     edge shared by two of them meets one."""
     c = [sum(p[j] for p in ps) / len(ps) for j in range(3)]
+    if (c[1], c[2]) == (y, z):   # through the centroid, which no half-open fan triangle holds
+        return c[0] if abs(c[0]) <= half else None
     for a, b in zip(ps, ps[1:] + ps[:1]):
         # Barycentric coordinates of (y, z) in the triangle (c, a, b) projected on yz.
         det = (a[1] - c[1]) * (b[2] - c[2]) - (b[1] - c[1]) * (a[2] - c[2])
@@ -710,8 +712,8 @@ def patch_flux(path, patch, n_faces):
 
 def branch_shares(geometry, outlet_shares):
     """Each branch's share of the inlet's flow rate: the sum of the measured
-    shares of the outlets downstream of it (1 for every segment of the
-    stepped tube, its single outlet carrying all)."""
+    shares of the outlets downstream of it (for every segment of the
+    stepped tube, its single outlet's measured share)."""
     out = []
     for b in geometry.branches():
         downstream = [share for name, share in outlet_shares.items() if name.startswith("outlet_" + b["path"])
@@ -812,8 +814,8 @@ def study_one(geometry, mesher, param, case, make_mesh, iterations):
             limit_iterations(case, iterations)
         result.update(solve(case))
         result.update(analyse(geometry, case))
-    except (RuntimeError, OSError, ValueError, ZeroDivisionError) as e:
-        result["failed"] = str(e)[-2000:]
+    except Exception as e:  # noqa: BLE001 -- any failure of one run (Gmsh raises plain Exception) is its result
+        result["failed"] = ("%s: %s" % (type(e).__name__, e))[-2000:]
         log("%s %g FAILED: %s" % (mesher, param, result["failed"]))
         return result
     log("%s %g: %d cells, %s after %d iterations, checkMesh %s"
@@ -844,8 +846,8 @@ def table(results):
     for r in results:
         name = "| %s | %s %g |" % (r["mesher"], MESHERS[r["mesher"]][2], r["parameter"])
         if "failed" in r:
-            rows.append("%s failed: %s |||||||||||" % (name, r["failed"].strip().splitlines()[-1][:200]
-                                                       if r["failed"].strip() else "(no message)"))
+            message = r["failed"].strip().splitlines()[-1][:200].replace("|", "/") if r["failed"].strip() else ""
+            rows.append("%s failed: %s%s" % (name, message or "(no message)", " |" * 12))
             continue
         for s in r["segments"]:
             rows.append("%s %d | %s | %.3g | %.4f | %d | %+.2f%% | %+.2f%% | %.2f%% | %+.2f%% | %.1f | %.1f%s | %+.2f%% |"
@@ -1013,7 +1015,8 @@ def claim(results, piece, pieces):
                                              max(s["cells_across"] for s in r["segments"])) for r in peers)))
     for percent in (1, 2):
         found = cells_for_worst(results, percent / 100)
-        lines.append("Cells for a worst %s within %d%% (WSS): %s." % (piece, percent, "; ".join(
+        lines.append("Cells for a worst %s within %d%% (WSS; where a mesher's error falls to it and stays below in "
+                     "its finer meshes, log-log interpolated, failed runs left out): %s." % (piece, percent, "; ".join(
             "%s %s" % (key, describe_cells(value, how)) for key, (value, how) in found.items())))
     shares = [f for r in results for f in r["outlet_flow_fractions"].values()]
     if len(results[0]["outlet_flow_fractions"]) > 1:
@@ -1068,8 +1071,8 @@ def doc_section(g, plot_path=None):
                        + ["| %s | %s | %s |" % (MESHERS[m][0], MESHERS[m][2], MESHERS[m][1])
                           for m in MESHERS if any(r["mesher"] == m for r in results)])
     commands = list(dict.fromkeys(r["command"] for r in results))
-    run_note = ("Run on {dates} on {cores} cores ({cpu}, load average {load:.1f} to {load_max:.1f} at the starts, "
-                "other jobs included), the source tree at {commits}. The script's docstring explains the peers' "
+    run_note = ("Run on {dates} on {cores} cores ({cpu}, load average {load:.1f} to {load_max:.1f} as each "
+                "command started, other jobs included), the source tree at {commits}. The script's docstring explains the peers' "
                 "settings.").format(
         dates=" to ".join(dict.fromkeys([min(r["date"][:10] for r in results), max(r["date"][:10] for r in results)])),
         cores=results[0]["cores"], cpu=results[0]["cpu"], load=min(r["load_average"] for r in results),
@@ -1338,17 +1341,20 @@ def main():
         return 0
     if args.merge:
         results_path = os.path.join(args.out, RESULTS_NAME)
-        data = load_results(results_path)
-        for path in args.merge:
-            other = load_results(path)
-            if not other["geometries"]:
-                raise SystemExit("%s holds no runs" % path)
-            for g in other["geometries"].values():
-                surface = {k: v for k, v in g.items() if k != "runs"}
-                for r in g["runs"]:
-                    add_run(data, surface, r, drop_other_surface=False)
-            log("merged the runs of %s into %s" % (path, results_path))
-        save_results(results_path, data)
+        os.makedirs(args.out, exist_ok=True)
+        with open(results_path + ".lock", "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            data = load_results(results_path)
+            for path in args.merge:
+                other = load_results(path)
+                if not other["geometries"]:
+                    raise SystemExit("%s holds no runs" % path)
+                for g in other["geometries"].values():
+                    surface = {k: v for k, v in g.items() if k != "runs"}
+                    for r in g["runs"]:
+                        add_run(data, surface, r, drop_other_surface=False)
+                log("merged the runs of %s into %s" % (path, results_path))
+            save_results(results_path, data)
         if args.doc or args.plot:
             write_outputs(data)
         return 0
@@ -1372,6 +1378,7 @@ def main():
     elements = args.elements or (QUICK_CURVATURE_ELEMENTS if args.quick else CURVATURE_ELEMENTS)
     workdir = args.workdir or os.path.join(args.out, geometry.name)
     os.makedirs(workdir, exist_ok=True)
+    os.makedirs(args.out, exist_ok=True)
     results_path = os.path.join(args.out, RESULTS_NAME)
     data = load_results(results_path)   # refused early when it is not a results file
     start = time.time()

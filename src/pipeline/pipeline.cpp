@@ -229,9 +229,6 @@ std::string units_warning(const SurfaceMesh& surface, const CaseConfig& config)
     return line;
 }
 
-// A surface that crosses itself is refused before any stage runs on it:
-// the feature size falls to nothing at the crossing and remeshing would
-// refine there without end.
 // Where `surface` crosses itself, in words ("" where it does not).
 std::string crossing_text(const SurfaceMesh& surface, const std::string& what)
 {
@@ -248,6 +245,9 @@ std::string crossing_text(const SurfaceMesh& surface, const std::string& what)
     return msg.str();
 }
 
+// A surface that crosses itself is refused before any stage runs on it:
+// the feature size falls to nothing at the crossing and remeshing would
+// refine there without end.
 void require_no_self_intersections(const SurfaceMesh& surface, const std::string& what)
 {
     if (const std::string crossing = crossing_text(surface, what); !crossing.empty())
@@ -723,6 +723,15 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
         {
             StageClock clock(run, listener, attempt == 0 ? "remeshing" : "remeshing (retry " + std::to_string(attempt) + ")");
             run.remeshed = remesh_to_feature_size(run.surface, d, remesh);
+            // The remeshed surface is checked as the input was, before and
+            // after its caps are rebuilt: a crossing would give a volume
+            // mesh of no one region (or a later stage's error about
+            // something else).
+            if (const std::string crossing = crossing_text(run.remeshed->surface, "the remeshed surface");
+                !crossing.empty())
+                throw StageError("remeshing", crossing + "; a surface that crosses itself encloses no one region. "
+                                                         "Another [sizing] M or K remeshes it differently; if that "
+                                                         "does not help, report the case");
             if (!run.caps.empty()) {
                 // The stable d with the cap rules, then each cap rebuilt
                 // from its rim's layer points (section 3's layers across
@@ -737,14 +746,13 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
                                .L_max = run.L_max,
                                .prism_columns = config.layers == LayerMode::prisms ? &volume.rim_columns : nullptr});
             }
-            // The remeshed surface is checked as the input was: a fold the
-            // remeshing left would give a volume mesh of no one region (or a
-            // later stage's error about something else).
-            if (const std::string crossing = crossing_text(run.remeshed->surface, "the remeshed surface");
-                !crossing.empty())
-                throw StageError("remeshing", crossing + "; a surface that crosses itself encloses no one region. "
-                                                         "Another M or K remeshes it differently; if that does "
-                                                         "not help, report the case");
+            if (!run.caps.empty())
+                if (const std::string crossing =
+                        crossing_text(run.remeshed->surface, "the remeshed surface with its caps rebuilt from the "
+                                                             "layers' rings");
+                    !crossing.empty())
+                    throw StageError("openings", crossing + "; check that each opening's plane cuts the vessel "
+                                                            "squarely, away from a branch, and report the case");
             const SurfaceFacts facts = surface_facts(run.remeshed->surface);
             std::ostringstream summary;
             summary << run.remeshed->merges << " merges, " << run.remeshed->swaps << " swaps, "

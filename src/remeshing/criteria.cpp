@@ -230,10 +230,13 @@ Check Criteria::swap(const HalfedgeMesh& mesh, const std::vector<double>& d, int
     const Vec3 patch = old1 + old2;
     if (dot(n1, patch) <= 0 || dot(n2, patch) <= 0) return reject(Verdict::fold);
     // Each new normal within a right angle of each old one too: where the
-    // two old triangles already meet at a crease sharper than that (as
-    // where a branch leaves its parent), their sum says little, and the
-    // swap can lay a new triangle over the fan beside it.
-    if (dot(n1, old1) <= 0 || dot(n1, old2) <= 0 || dot(n2, old1) <= 0 || dot(n2, old2) <= 0)
+    // two old triangles meet at a sharp crease (as where a branch leaves its
+    // parent) their sum says little, and the swap can lay a new triangle
+    // over the fan beside it. An old triangle too flat to have a normal
+    // (a needle the swap would remove) is left out.
+    const bool has_normal1 = !degenerate(old1, xb - xa, xc - xa), has_normal2 = !degenerate(old2, xa - xb, xe - xb);
+    if ((has_normal1 && (dot(n1, old1) <= 0 || dot(n2, old1) <= 0)) ||
+        (has_normal2 && (dot(n1, old2) <= 0 || dot(n2, old2) <= 0)))
         return reject(Verdict::fold);
     // With the origin at x_c only the old triangle (b, a, e) adds volume.
     check.volume_change = -dot(xb - xc, cross(xa - xc, xe - xc)) / 6;
