@@ -294,21 +294,61 @@ LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizi
     }
 
     // What the rounds could not mend stays without layers: a hole in the
-    // stack, which the core fills, bounded by the hole's wall triangles and
-    // the side faces of the prisms around it.
+    // stack, which the core fills, bounded by the hole's wall triangles, the
+    // side faces of the prisms around it and, along a rim edge, the cap's
+    // strip between the edge's two columns (the side its prism would have had).
     std::vector<char> hole(walls.size(), 0);
-    const auto bare = [&](size_t w) {
-        int fixed_corners = 0;
-        for (int32_t v : surface.triangles[walls[w]]) fixed_corners += stack.first[v] < 0;
-        if (fixed_corners >= 2)
-            throw StageError("volume", "wall triangle " + std::to_string(walls[w]) +
-                                           " next to an opening has poor prism layers, and two of its columns are "
-                                           "the cap's own");
+    for (size_t w = 0; w < walls.size(); ++w)
+        if (poor[w]) hole[w] = 1, ++stack.holes;
+
+    // The cap triangles of each rim edge's strip, by the edge's directed key
+    // (as the wall triangle has it): those whose corners all lie on the two
+    // rim nodes' columns, two per layer.
+    std::unordered_map<uint64_t, std::vector<int32_t>> strip;
+    if (!params.rim_columns.empty()) {
+        std::vector<int32_t> owner(n, -1); // the rim node whose column holds a cap node
+        for (int32_t v = 0; v < n; ++v)
+            if (fixed(v)) {
+                owner[v] = v;
+                for (int32_t m = 1; m <= L; ++m) owner[params.rim_columns[size_t(v) * L + m - 1]] = v;
+            }
+        std::unordered_map<uint64_t, std::vector<int32_t>> by_pair;
+        for (size_t f = 0; f < surface.triangles.size(); ++f) {
+            if (!patched || surface.triangle_patch[f] == 0) continue;
+            const Triangle& t = surface.triangles[f];
+            const int32_t a = owner[t[0]], b = owner[t[1]], c = owner[t[2]];
+            if (a < 0 || b < 0 || c < 0) continue;
+            const int32_t lo = std::min({a, b, c}), hi = std::max({a, b, c});
+            if (lo != hi && (a == lo || a == hi) && (b == lo || b == hi) && (c == lo || c == hi))
+                by_pair[directed_edge_key(lo, hi)].push_back(static_cast<int32_t>(f));
+        }
+        for (size_t w = 0; w < walls.size(); ++w) {
+            const Triangle& t = surface.triangles[walls[w]];
+            for (int k = 0; k < 3; ++k) {
+                const int32_t a = t[k], b = t[(k + 1) % 3];
+                if (!fixed(a) || !fixed(b)) continue;
+                const auto it = by_pair.find(directed_edge_key(std::min(a, b), std::max(a, b)));
+                if (it != by_pair.end()) strip[directed_edge_key(a, b)] = it->second;
+            }
+        }
+    }
+    const EdgeFaces edges = wall_edge_faces(surface, walls);
+    const auto check_strips = [&](size_t w) {
+        const Triangle& t = surface.triangles[walls[w]];
+        for (int k = 0; k < 3; ++k) {
+            const int32_t a = t[k], b = t[(k + 1) % 3];
+            if (edges.other(a, b) >= 0 || !fixed(a) || !fixed(b)) continue;
+            const auto it = strip.find(directed_edge_key(a, b));
+            if (it == strip.end() || it->second.size() != size_t(2) * L)
+                throw StageError("volume", "wall triangle " + std::to_string(walls[w]) +
+                                               " next to an opening has poor prism layers, and the cap's strip along "
+                                               "its rim edge is not two triangles per layer (" +
+                                               std::to_string(it == strip.end() ? 0 : it->second.size()) + ")");
+        }
     };
     for (size_t w = 0; w < walls.size(); ++w)
-        if (poor[w]) hole[w] = 1, ++stack.holes, bare(w);
+        if (hole[w]) check_strips(w);
 
-    const EdgeFaces edges = wall_edge_faces(surface, walls);
     for (int pass = 0;; ++pass) {
         stack.tets.clear(), stack.top.clear(), stack.top_of.clear(), stack.prisms = 0;
         for (size_t w = 0; w < walls.size(); ++w) {
@@ -317,6 +357,10 @@ LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizi
             if (hole[w]) {
                 stack.top.push_back(t);
                 stack.top_of.push_back(f);
+                for (int k = 0; k < 3; ++k)
+                    if (const auto it = strip.find(directed_edge_key(t[k], t[(k + 1) % 3]));
+                        it != strip.end() && edges.other(t[k], t[(k + 1) % 3]) < 0)
+                        for (int32_t c : it->second) stack.top.push_back(surface.triangles[c]), stack.top_of.push_back(f);
                 continue;
             }
             for (int32_t m = 1; m <= L; ++m)
@@ -358,7 +402,7 @@ LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizi
         };
         for (const auto& pair : crossing.first)
             for (int32_t face : pair)
-                if (const int32_t w = wall_index(face); w >= 0 && !hole[w]) hole[w] = 1, ++stack.holes, bare(w);
+                if (const int32_t w = wall_index(face); w >= 0 && !hole[w]) hole[w] = 1, ++stack.holes, check_strips(w);
     }
     // The layer points in use (of a node with a prism), renumbered.
     std::vector<int32_t> new_id(at.size(), -1);

@@ -76,8 +76,9 @@ struct LayerStack {
 // a whole region of such nodes has none to borrow. Columns start at their full
 // height cut to D / 2 (d / 2 for a repaired normal), proportions kept.
 // Wall triangles whose prisms are still poor after max_rounds get no layers
-// (holes, which the core fills); StageError when such a triangle has two
-// nodes on an opening's rim.
+// (holes, which the core fills: along a rim edge, the cap's strip between the
+// edge's two columns closes the hole); StageError when that strip is not two
+// cap triangles per layer.
 LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizing, const LayerColumns& columns,
                              const LayerStackParams& params = {});
 

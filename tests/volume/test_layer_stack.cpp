@@ -1,7 +1,9 @@
 // The explicit prism layers: the index rule's split of a prism and the
 // shortening of a column (volume/layer_stack.h).
 
+#include "core/errors.h"
 #include "core/tet_mesh.h"
+#include "sizing/feature_size.h"
 #include "volume/layer_stack.h"
 
 #include <gtest/gtest.h>
@@ -102,6 +104,68 @@ TEST(LayerStack, AShortenedColumnKeepsItsFirstLayerAndEndsAtTheNewHeight)
     EXPECT_NEAR(flat[0], 0.08, 1e-12);
     EXPECT_NEAR(flat[1], 0.16, 1e-12);
     EXPECT_NEAR(flat[2], 0.24, 1e-12);
+}
+
+// A wall triangle (a, b, c) whose edge a-b lies on an opening's rim (z = 0
+// wall, y = 0 cap, the fluid at z > 0, y < 0), one layer: a and b's columns
+// are the cap's nodes a1, b1, the cap's strip between them two triangles.
+struct RimTriangle {
+    SurfaceMesh surface;
+    FeatureSize sizing;
+    LayerColumns columns;
+    LayerStackParams params;
+    RimTriangle(const Vec3& c_inward, bool with_strip = true)
+    {
+        const double h = 0.5;
+        surface.points = {{0, 0, 0}, {1, 0, 0}, {0.5, -1, 0}, {0, 0, h}, {1, 0, h}}; // a b c a1 b1
+        surface.triangles = {{0, 1, 2}};
+        surface.triangle_patch = {0};
+        if (with_strip) {
+            surface.triangles.push_back({0, 4, 1}), surface.triangle_patch.push_back(1);
+            surface.triangles.push_back({0, 3, 4}), surface.triangle_patch.push_back(1);
+        }
+        sizing.d.assign(5, 1.0);
+        sizing.D.assign(5, 10.0);
+        columns.layers = 1;
+        columns.inward = {{0, 0, 1}, {0, 0, 1}, normalized(c_inward), {0, 0, 1}, {0, 0, 1}};
+        columns.dist.assign(5, h);
+        columns.spacing.assign(5, h);
+        columns.repaired.assign(5, 0);
+        params.rim_columns = {3, 4, -1, -1, -1};
+    }
+};
+
+TEST(LayerStack, APoorPrismOnARimEdgeLeavesAHoleClosedByTheCapsStrip)
+{
+    // The free column upright: one intact prism, nothing left to the core
+    // but its top.
+    {
+        RimTriangle rim({0, 0, 1});
+        const LayerStack stack = build_layer_stack(rim.surface, rim.sizing, rim.columns, rim.params);
+        EXPECT_EQ(stack.holes, 0);
+        EXPECT_EQ(stack.prisms, 1);
+        EXPECT_EQ(stack.tets.size(), 3u);
+        ASSERT_EQ(stack.top.size(), 1u);
+    }
+    // The free column lying almost along the wall, toward the rim: its
+    // prism's tet on the wall stays flat however short the column is. The
+    // triangle is left bare, and the core's boundary there is the triangle
+    // and the cap's strip along a-b (where the prism's side would have been).
+    RimTriangle rim({0, 1, 0.02});
+    const LayerStack stack = build_layer_stack(rim.surface, rim.sizing, rim.columns, rim.params);
+    EXPECT_EQ(stack.holes, 1);
+    EXPECT_EQ(stack.prisms, 0);
+    EXPECT_TRUE(stack.tets.empty());
+    ASSERT_EQ(stack.top.size(), 3u);
+    EXPECT_EQ(stack.top[0], (Triangle{0, 1, 2}));
+    EXPECT_EQ(stack.top[1], (Triangle{0, 4, 1}));
+    EXPECT_EQ(stack.top[2], (Triangle{0, 3, 4}));
+    EXPECT_EQ(stack.top_of, (std::vector<int32_t>{0, 0, 0}));
+    // Without the strip (a cap not cut as the rim prisms' sides) the hole
+    // could not be closed: a stage error, not an open core.
+    RimTriangle stripless({0, 1, 0.02}, false);
+    EXPECT_THROW(build_layer_stack(stripless.surface, stripless.sizing, stripless.columns, stripless.params),
+                 StageError);
 }
 
 } // namespace
