@@ -7,6 +7,7 @@ import math
 import os
 import platform
 import re
+import shutil
 import subprocess
 import time
 
@@ -142,6 +143,32 @@ def read_polymesh(case):
     owner, neighbour = ([int(line) for line in foam_list_lines(os.path.join(poly, name))]
                         for name in ("owner", "neighbour"))
     return points, faces, owner, neighbour
+
+
+def have_gnuplot():
+    """Whether gnuplot is on the PATH (said in the log when it is not)."""
+    if shutil.which("gnuplot"):
+        return True
+    log("no gnuplot: no plot")
+    return False
+
+
+def write_series(path, rows):
+    """A gnuplot data file at `path`: one line per row of numbers, an int as
+    %d, a float as %g, None as NaN. Returns the path."""
+    with open(path, "w") as f:
+        for row in rows:
+            f.write(" ".join("NaN" if v is None else "%d" % v if isinstance(v, int) else "%g" % v
+                             for v in row) + "\n")
+    return path
+
+
+def run_gnuplot(script, path):
+    """Writes the gnuplot `script` to `path` and runs it. Returns True."""
+    with open(path, "w") as f:
+        f.write(script)
+    subprocess.check_call(["gnuplot", path])
+    return True
 
 
 def cpu_model():

@@ -33,13 +33,12 @@ import json
 import math
 import os
 import shutil
-import subprocess
 import sys
 import time
 
 sys.dont_write_bytecode = True  # no __pycache__ in the source tree (ctest runs this from it)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import (REPO, cpu_model, log, run, solve, latest_time, internal_field, patch_field,  # noqa: E402
+from common import (REPO, have_gnuplot, write_series, run_gnuplot, cpu_model, log, run, solve, latest_time, internal_field, patch_field,  # noqa: E402
                     boundary_faces, replace_section, CURVED_BEGIN, CURVED_END)
 
 U_IN = 0.1            # m/s, uniform inflow
@@ -365,18 +364,15 @@ def reference(results):
 # ---------------------------------------------------------------- report
 
 def plot(results, png, workdir):
-    if not shutil.which("gnuplot"):
-        log("no gnuplot: no plot")
+    if not have_gnuplot():
         return False
     panels = []
     for kind, title in (("bend", "Curved tube, De = %.0f" % BEND_DEAN), ("stenosis", "Stenosis, Re = %.0f" % STEN_RE)):
         rows = sorted((r for r in results if r["case"] == kind and "failed" not in r), key=lambda r: r["cells"])
-        path = os.path.join(workdir, "plot-%s.dat" % kind)
-        with open(path, "w") as f:
-            for r in rows:
-                # a zero error (the finest mesh against a finest-mesh fallback) is left out
-                f.write("%d %s\n" % (r["cells"], " ".join(
-                    ("%g" % (abs(r[k + "_error"]) * 100)) if r.get(k + "_error") else "NaN" for k, _ in QUANTITIES[kind])))
+        # a zero error (the finest mesh against a finest-mesh fallback) is left out
+        path = write_series(os.path.join(workdir, "plot-%s.dat" % kind), (
+            [r["cells"]] + [abs(r[k + "_error"]) * 100 if r.get(k + "_error") else None for k, _ in QUANTITIES[kind]]
+            for r in rows))
         curves = ", ".join("'%s' u 1:%d w lp pt %d lw 2 t '%s'" % (path, i + 2, 5 + 2 * i, k)
                            for i, (k, _) in enumerate(QUANTITIES[kind]))
         panels.append('set title "%s: |error| against the reference"\nplot %s, 1 w l dt 2 lc "black" t "1%%"'
@@ -393,10 +389,7 @@ set datafile missing "NaN"
 %s
 unset multiplot
 """ % (png, "\n".join(panels))
-    path = os.path.join(workdir, "curved-plot.gp")
-    open(path, "w").write(script)
-    subprocess.check_call(["gnuplot", path])
-    return True
+    return run_gnuplot(script, os.path.join(workdir, "curved-plot.gp"))
 
 
 def fmt(v):

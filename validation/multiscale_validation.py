@@ -166,7 +166,7 @@ import time
 
 sys.dont_write_bytecode = True  # no __pycache__ in the source tree
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import (REPO, cpu_model, log, run, solve, latest_time, internal_field,  # noqa: E402
+from common import (REPO, have_gnuplot, write_series, run_gnuplot, cpu_model, log, run, solve, latest_time, internal_field,  # noqa: E402
                     patch_field, boundary_faces, read_polymesh, replace_section, snappy_tube)
 from tube_validation import case_from_template, cells_for, foam_from_msh, gmsh_volume_case  # noqa: E402
 from netgen_peer import netgen_case  # noqa: E402
@@ -1095,8 +1095,7 @@ def plot(data, png, workdir):
     """The log-log plot of the worst branch's |WSS error| against cells,
     one panel per geometry of `data`, one line per mesher (gnuplot);
     False without gnuplot."""
-    if not shutil.which("gnuplot"):
-        log("no gnuplot: no plot")
+    if not have_gnuplot():
         return False
     os.makedirs(workdir, exist_ok=True)
     panels = []
@@ -1106,10 +1105,8 @@ def plot(data, png, workdir):
             runs = sorted((r for r in done(g["runs"]) if r["mesher"] == mesher), key=lambda r: r["cells"])
             if not runs:
                 continue
-            path = os.path.join(workdir, "plot-%s-%s.dat" % (name, mesher))
-            with open(path, "w") as f:
-                for r in runs:
-                    f.write("%d %g\n" % (r["cells"], max(100 * worst(r), 1e-3)))
+            path = write_series(os.path.join(workdir, "plot-%s-%s.dat" % (name, mesher)),
+                                ((r["cells"], max(100 * worst(r), 1e-3)) for r in runs))
             curves.append("'%s' u 1:2 w lp pt %d lc %d lw 2 t \"%s\"" % (path, 4 + 2 * i, i + 1,
                                                                          MESHERS[mesher][0]))
         panels.append('set title "%s"\nplot %s, 1 w l dt 2 lc "black" t "1%%", 2 w l dt 3 lc "black" t "2%%"'
@@ -1126,10 +1123,7 @@ set key below maxrows 4
 {panels}
 unset multiplot
 """.format(width=760 * len(panels), png=png, n=len(panels), panels="\n".join(panels))
-    path = os.path.join(workdir, "plot.gp")
-    open(path, "w").write(script)
-    subprocess.check_call(["gnuplot", path])
-    return True
+    return run_gnuplot(script, os.path.join(workdir, "plot.gp"))
 
 
 # ---------------------------------------------------------------- results file

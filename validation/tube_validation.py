@@ -35,13 +35,12 @@ import math
 import os
 import re
 import shutil
-import subprocess
 import sys
 import time
 
 sys.dont_write_bytecode = True  # no __pycache__ in the source tree (ctest runs this from it)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import (REPO, log, run, solve, latest_time, internal_field,  # noqa: E402
+from common import (REPO, have_gnuplot, write_series, run_gnuplot, log, run, solve, latest_time, internal_field,  # noqa: E402
                     patch_field, boundary_faces, foam_list_lines, snappy_tube, write_page)
 
 NU = 1e-3          # m^2/s: Reynolds number U D / nu = 0.6, developed within
@@ -478,19 +477,16 @@ def describe(value, how):
 
 
 def plot(results, png, workdir):
-    if not shutil.which("gnuplot"):
-        log("no gnuplot: no plot")
+    if not have_gnuplot():
         return False
     series = [(k, SERIES_NAMES[k], 7 if k == "scalemesh" else 3) for k in SCALEMESH_SURFACES.values()] + \
         [(kind, name, 5 + 4 * i) for i, (kind, name) in enumerate(PEERS)]
     data = {}
     for kind, _, _ in series:
-        path = os.path.join(workdir, "plot-%s.dat" % kind)
-        with open(path, "w") as f:
-            for r in sorted((r for r in results if r["mesher"] == kind), key=lambda r: r["cells"]):
-                f.write("%d %g %g %g\n" % (r["cells"], max(abs(r["wss_error"]) * 100, 1e-3),
-                                          max(abs(r["dp_error"]) * 100, 1e-3), r["wss_rms_error"] * 100))
-        data[kind] = path
+        data[kind] = write_series(os.path.join(workdir, "plot-%s.dat" % kind), (
+            (r["cells"], max(abs(r["wss_error"]) * 100, 1e-3), max(abs(r["dp_error"]) * 100, 1e-3),
+             r["wss_rms_error"] * 100)
+            for r in sorted((r for r in results if r["mesher"] == kind), key=lambda r: r["cells"])))
 
     def curves(column):
         return ", ".join("'%s' u 1:%d w lp pt %d lw 2 t \"%s\"" % (data[kind], column, pt, name)
@@ -512,10 +508,7 @@ set title "local wall shear stress, area-weighted RMS deviation"
 plot {rms}, 1 w l dt 2 lc "black" t "1%"
 unset multiplot
 """.format(png=png, wss=curves(2), dp=curves(3), rms=curves(4))
-    path = os.path.join(workdir, "plot.gp")
-    open(path, "w").write(script)
-    subprocess.check_call(["gnuplot", path])
-    return True
+    return run_gnuplot(script, os.path.join(workdir, "plot.gp"))
 
 
 def table(results):

@@ -20,6 +20,9 @@ namespace {
 // whose index-rule split has a tet of under 5% of its volume (layer_stack.h
 // refuses those), which the cap's fixed columns could not mend.
 constexpr double kMinCapShare = 0.2;
+// Shortest segment of a cap's last ring, as a fraction of the thickness of
+// the top layer of its two columns.
+constexpr double kMinRingSpacing = 0.8;
 
 // Largest tangential shift of a cap point, as a fraction of its spacing.
 constexpr double kTangentialShift = 0.1;
@@ -135,7 +138,10 @@ void prism_cap(const SurfaceMesh& surface, const Cap& cap, const openings::Plane
     // the last ring of a tube's cap, a few degrees of noise in the normals
     // is enough): as build_layer_stack does in 3D, the columns of poor or
     // crossing quads are shortened (by 0.8 a round, neighbours along the
-    // rim within 0.3 of each other), the first layer kept.
+    // rim within 0.3 of each other), the first layer kept; so are the
+    // columns of a last-ring segment shorter than kMinRingSpacing of their
+    // top layer (converging normals draw the last ring in until the fill
+    // inside it can only make needles).
     std::map<int32_t, double> scale;
     for (const auto& loop : loops)
         for (int32_t r : loop) {
@@ -182,6 +188,12 @@ void prism_cap(const SurfaceMesh& surface, const Cap& cap, const openings::Plane
                     const double t2 = sign * (index[a] < index[b] ? area2(q[0], q[2], q[3]) : area2(q[1], q[3], q[0]));
                     if (!(quad > 0) || t1 < kMinCapShare * quad || t2 < kMinCapShare * quad) poor[a] = poor[b] = 1;
                 }
+                // The last ring's segment against its columns' top layer: a
+                // ring drawn in to a fraction of the layer's thickness leaves
+                // the fill inside it needles.
+                const double top = std::max(std::hypot(A[L][0] - A[L - 1][0], A[L][1] - A[L - 1][1]),
+                                            std::hypot(B[L][0] - B[L - 1][0], B[L][1] - B[L - 1][1]));
+                if (std::hypot(A[L][0] - B[L][0], A[L][1] - B[L][1]) < kMinRingSpacing * top) poor[a] = poor[b] = 1;
                 // The last ring's segment against the others of its loop.
                 for (size_t j = k + 2; j < loop.size(); ++j) {
                     if ((j + 1) % loop.size() == k) continue;

@@ -648,5 +648,38 @@ TEST(RingCaps, CylinderCapShowsThreeRingsForSevenLayers)
     }
 }
 
+TEST(RingCaps, PrismColumnsStopWhereTheLastRingIsAsWideAsItsTopLayerIsThick)
+{
+    // Seven layers in a 6 mm tube: three layers from each side would draw
+    // the rim columns in to 0.4 mm of the axis, where the last ring's
+    // segments are an eighth of the top layer's thickness and the fill
+    // inside it needles. The columns are shortened until each segment of
+    // the last ring is at least 0.8 of the thicker top layer of its two
+    // columns.
+    constexpr double R = 3.0;
+    constexpr int around = 24;
+    const CappedSurface capped = capped_cylinder(R, 20, around, 26);
+    FeatureSize sizing = cap_feature_size(capped.surface, capped.caps, tube_sizing());
+    std::vector<int32_t> columns;
+    const SurfaceMesh ringed =
+        ring_caps(capped.surface, capped.caps, sizing, {.M = 7, .growth = 1.0, .L_max = 20, .prism_columns = &columns});
+    ASSERT_TRUE(surface_facts(ringed).closed_manifold());
+    constexpr int L = 3;
+    ASSERT_EQ(columns.size(), ringed.points.size() * L);
+    const auto column = [&](int32_t v, int m) { return m == 0 ? v : columns[size_t(v) * L + m - 1]; };
+    int segments = 0;
+    for (const Triangle& t : ringed.triangles)
+        for (int k = 0; k < 3; ++k) {
+            const int32_t a = t[k], b = t[(k + 1) % 3];
+            if (a > b || columns[size_t(a) * L] < 0 || columns[size_t(b) * L] < 0) continue; // a rim edge, once
+            const auto& x = ringed.points;
+            const double top = std::max(distance(x[column(a, L)], x[column(a, L - 1)]),
+                                        distance(x[column(b, L)], x[column(b, L - 1)]));
+            EXPECT_GE(distance(x[column(a, L)], x[column(b, L)]), 0.8 * top * (1 - 1e-9)) << a << "-" << b;
+            ++segments;
+        }
+    EXPECT_EQ(segments, 2 * around); // both caps' rims
+}
+
 } // namespace
 } // namespace scalemesh
