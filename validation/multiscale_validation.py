@@ -1252,6 +1252,9 @@ def main():
                     help="directory of the results file %s, which each run is merged into (a run replaces one of "
                     "the same mesher and parameter; default: %%(default)s)" % RESULTS_NAME)
     ap.add_argument("--workdir", help="case directories (default: OUT/GEOMETRY)")
+    ap.add_argument("--fresh", action="store_true",
+                    help="replace OUT's runs of the geometry when they were made on another surface or flow "
+                    "(another --elements, --quick); without it such a run is refused before anything runs")
     ap.add_argument("--geometry", choices=sorted(GEOMETRIES),
                     help="the stepped tube or the bifurcating tree (default: stepped; with --from-json, every "
                     "geometry of the file)")
@@ -1388,6 +1391,12 @@ def main():
         write_surface_stl(geometry, stl_exact, elements, margins=False)
     log("%s: diameters %s mm, %d STL triangles (%d around)"
         % (geometry.title, " / ".join("%.3g" % d for d in surface["diameters_mm"]), triangles, elements))
+    held = data["geometries"].get(geometry.name)
+    other = [k for k, v in surface.items() if held is not None and held.get(k) != v]
+    if other and not args.fresh:
+        raise SystemExit("%s holds %s runs made on another surface or flow (%s): they would be dropped. Run "
+                         "with --fresh to replace them, or give another --out" % (results_path, geometry.name,
+                                                                                   ", ".join(other)))
 
     results = []
 
@@ -1401,7 +1410,7 @@ def main():
         with open(results_path + ".lock", "w") as lock:
             fcntl.flock(lock, fcntl.LOCK_EX)
             data = load_results(results_path)
-            add_run(data, surface, result)
+            add_run(data, surface, result, drop_other_surface=args.fresh)
             save_results(results_path, data)
 
     template = None
