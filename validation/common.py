@@ -155,7 +155,8 @@ def have_gnuplot():
 
 def write_series(path, rows):
     """A gnuplot data file at `path`: one line per row of numbers, an int as
-    %d, a float as %g, None as NaN. Returns the path."""
+    %d, a float as %g, None as NaN (so pass cell counts as ints and
+    measured values as floats). Returns the path."""
     with open(path, "w") as f:
         for row in rows:
             f.write(" ".join("NaN" if v is None else "%d" % v if isinstance(v, int) else "%g" % v

@@ -38,7 +38,8 @@ import time
 
 sys.dont_write_bytecode = True  # no __pycache__ in the source tree (ctest runs this from it)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import (REPO, have_gnuplot, write_series, run_gnuplot, cpu_model, log, run, solve, latest_time, internal_field, patch_field,  # noqa: E402
+from common import (REPO, have_gnuplot, write_series, run_gnuplot,  # noqa: E402
+                    cpu_model, log, run, solve, latest_time, internal_field, patch_field,  # noqa: E402
                     boundary_faces, replace_section, CURVED_BEGIN, CURVED_END)
 
 U_IN = 0.1            # m/s, uniform inflow

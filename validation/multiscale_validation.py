@@ -166,7 +166,8 @@ import time
 
 sys.dont_write_bytecode = True  # no __pycache__ in the source tree
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import (REPO, have_gnuplot, write_series, run_gnuplot, cpu_model, log, run, solve, latest_time, internal_field,  # noqa: E402
+from common import (REPO, have_gnuplot, write_series, run_gnuplot,  # noqa: E402
+                    cpu_model, log, run, solve, latest_time, internal_field,  # noqa: E402
                     patch_field, boundary_faces, read_polymesh, replace_section, snappy_tube)
 from tube_validation import case_from_template, cells_for, foam_from_msh, gmsh_volume_case  # noqa: E402
 from netgen_peer import netgen_case  # noqa: E402

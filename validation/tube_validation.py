@@ -40,7 +40,8 @@ import time
 
 sys.dont_write_bytecode = True  # no __pycache__ in the source tree (ctest runs this from it)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import (REPO, have_gnuplot, write_series, run_gnuplot, log, run, solve, latest_time, internal_field,  # noqa: E402
+from common import (REPO, have_gnuplot, write_series, run_gnuplot,  # noqa: E402
+                    log, run, solve, latest_time, internal_field,  # noqa: E402
                     patch_field, boundary_faces, foam_list_lines, snappy_tube, write_page)
 
 NU = 1e-3          # m^2/s: Reynolds number U D / nu = 0.6, developed within

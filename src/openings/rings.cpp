@@ -189,11 +189,13 @@ void prism_cap(const SurfaceMesh& surface, const Cap& cap, const openings::Plane
                     if (!(quad > 0) || t1 < kMinCapShare * quad || t2 < kMinCapShare * quad) poor[a] = poor[b] = 1;
                 }
                 // The last ring's segment against its columns' top layer: a
-                // ring drawn in to a fraction of the layer's thickness leaves
-                // the fill inside it needles.
+                // ring drawn in (shorter than the rim edge) to a fraction of
+                // the layer's thickness leaves the fill inside it needles.
                 const double top = std::max(std::hypot(A[L][0] - A[L - 1][0], A[L][1] - A[L - 1][1]),
                                             std::hypot(B[L][0] - B[L - 1][0], B[L][1] - B[L - 1][1]));
-                if (std::hypot(A[L][0] - B[L][0], A[L][1] - B[L][1]) < kMinRingSpacing * top) poor[a] = poor[b] = 1;
+                const double last = std::hypot(A[L][0] - B[L][0], A[L][1] - B[L][1]);
+                if (last < kMinRingSpacing * top && last < std::hypot(A[0][0] - B[0][0], A[0][1] - B[0][1]))
+                    poor[a] = poor[b] = 1;
                 // The last ring's segment against the others of its loop.
                 for (size_t j = k + 2; j < loop.size(); ++j) {
                     if ((j + 1) % loop.size() == k) continue;
@@ -204,8 +206,13 @@ void prism_cap(const SurfaceMesh& surface, const Cap& cap, const openings::Plane
         }
         if (poor.empty()) break;
         if (round == 40)
-            throw StageError("openings", "the layer columns of cap '" + cap.name +
-                                             "' still cross in its plane after 40 rounds of shortening");
+            throw StageError("openings", "the layer columns of cap '" + cap.name + "' still make poor quads, cross, "
+                                             "or draw its last ring in closer than " +
+                                             std::to_string(kMinRingSpacing) + " of their top layer after 40 rounds "
+                                             "of shortening (" + std::to_string(poor.size()) + " rim nodes, the "
+                                             "first " + std::to_string(poor.begin()->first) +
+                                             "); a larger M or a flatter rim (an opening plane across the vessel's "
+                                             "axis) lets them fit");
         for (const auto& [r, flag] : poor) scale[r] *= 0.8;
         for (bool changed = true; changed;) {
             changed = false;

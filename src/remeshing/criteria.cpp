@@ -30,6 +30,27 @@ double min_angle(const Vec3& p, const Vec3& q, const Vec3& r)
 // normal would be round-off.
 bool degenerate(const Vec3& cr, const Vec3& u, const Vec3& v) { return norm(cr) <= 1e-12 * (norm2(u) + norm2(v)); }
 
+// InputError naming `what` unless a and b are point indices of `surface`
+// and d holds one value per point.
+void check_indices(const SurfaceMesh& surface, const std::vector<double>& d, int32_t a, int32_t b, const char* what)
+{
+    const auto n = static_cast<int32_t>(surface.points.size());
+    if (a < 0 || b < 0 || a >= n || b >= n || d.size() != surface.points.size())
+        throw InputError(std::string(what) + " needs two point indices and one d per point", "");
+}
+
+// The half-edge from point a to point b of `mesh` (indices checked by
+// check_indices), for the check functions: InputError with `hint` when the
+// points are not joined by an edge.
+int32_t checked_edge(const HalfedgeMesh& mesh, int32_t a, int32_t b, const char* hint)
+{
+    const int32_t h = mesh.vertex_alive(a) ? mesh.find_halfedge(a, b) : -1;
+    if (h < 0)
+        throw InputError("points " + std::to_string(a) + " and " + std::to_string(b) + " are not joined by an edge",
+                         hint);
+    return h;
+}
+
 } // namespace
 
 bool Criteria::link_condition(const HalfedgeMesh& mesh, int32_t h)
@@ -243,31 +264,12 @@ Check Criteria::swap(const HalfedgeMesh& mesh, const std::vector<double>& d, int
     return check;
 }
 
-namespace {
-
-// The half-edge from point a to point b of `mesh` (built from `surface`, d
-// one value per point), for the check functions: InputError naming `what`
-// when an index is out of range or the points are not joined by an edge.
-int32_t checked_edge(const HalfedgeMesh& mesh, const SurfaceMesh& surface, const std::vector<double>& d, int32_t a,
-                     int32_t b, const char* what, const char* hint)
-{
-    const auto n = static_cast<int32_t>(surface.points.size());
-    if (a < 0 || b < 0 || a >= n || b >= n || d.size() != surface.points.size())
-        throw InputError(std::string(what) + " needs two point indices and one d per point", "");
-    const int32_t h = mesh.vertex_alive(a) ? mesh.find_halfedge(a, b) : -1;
-    if (h < 0)
-        throw InputError("points " + std::to_string(a) + " and " + std::to_string(b) + " are not joined by an edge",
-                         hint);
-    return h;
-}
-
-} // namespace
-
 Check check_merge(const SurfaceMesh& surface, const std::vector<double>& d, int32_t i, int32_t j,
                   const RemeshParams& params)
 {
+    check_indices(surface, d, i, j, "check_merge");
     const HalfedgeMesh mesh(surface);
-    const int32_t h = checked_edge(mesh, surface, d, i, j, "check_merge", "merge a point into one of its neighbours");
+    const int32_t h = checked_edge(mesh, i, j, "merge a point into one of its neighbours");
     Criteria criteria(params);
     return criteria.merge(mesh, d, nullptr, h);
 }
@@ -275,8 +277,9 @@ Check check_merge(const SurfaceMesh& surface, const std::vector<double>& d, int3
 Check check_swap(const SurfaceMesh& surface, const std::vector<double>& d, int32_t a, int32_t b,
                  const RemeshParams& params)
 {
+    check_indices(surface, d, a, b, "check_swap");
     const HalfedgeMesh mesh(surface);
-    const int32_t h = checked_edge(mesh, surface, d, a, b, "check_swap", "swap an edge of the surface");
+    const int32_t h = checked_edge(mesh, a, b, "swap an edge of the surface");
     return Criteria(params).swap(mesh, d, h);
 }
 

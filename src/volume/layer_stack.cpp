@@ -342,8 +342,10 @@ LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizi
             if (it == strip.end() || it->second.size() != size_t(2) * L)
                 throw StageError("volume", "wall triangle " + std::to_string(walls[w]) +
                                                " next to an opening has poor prism layers, and the cap's strip along "
-                                               "its rim edge is not two triangles per layer (" +
-                                               std::to_string(it == strip.end() ? 0 : it->second.size()) + ")");
+                                               "its rim edge " + std::to_string(a) + "-" + std::to_string(b) +
+                                               " is not two triangles per layer (" +
+                                               std::to_string(it == strip.end() ? 0 : it->second.size()) +
+                                               "): the caps must be built with RingParams::prism_columns");
         }
     };
     for (size_t w = 0; w < walls.size(); ++w)

@@ -58,9 +58,11 @@ struct LayerStack {
     std::vector<double> scale; // per surface node: the fraction of its column's height kept (1: all)
     std::vector<Tet> tets;     // three per prism, positively oriented, over ids < n + points.size()
     std::vector<Triangle> top; // the core's boundary along the wall: each prism stack's top, and around a
-                               // hole its wall triangles and the side faces of the prisms beside it, all
+                               // hole its wall triangles, the side faces of the prisms beside it and,
+                               // along a rim edge, the cap's strip between the edge's columns, all
                                // oriented outward from the core
-    std::vector<int32_t> top_of; // per top triangle: its wall triangle
+    std::vector<int32_t> top_of; // per top triangle: its wall triangle (for a side face or a strip triangle,
+                                 // the prism's or the bare wall triangle it bounds)
     int64_t prisms = 0;
     int64_t holes = 0;         // wall triangles left without layers: their prisms stayed poor after max_rounds
     int64_t shortened_nodes = 0; // nodes whose column is below its full height

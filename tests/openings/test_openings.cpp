@@ -668,6 +668,7 @@ TEST(RingCaps, PrismColumnsStopWhereTheLastRingIsAsWideAsItsTopLayerIsThick)
     ASSERT_EQ(columns.size(), ringed.points.size() * L);
     const auto column = [&](int32_t v, int m) { return m == 0 ? v : columns[size_t(v) * L + m - 1]; };
     int segments = 0;
+    double closest = 1e300; // the smallest segment over top layer
     for (const Triangle& t : ringed.triangles)
         for (int k = 0; k < 3; ++k) {
             const int32_t a = t[k], b = t[(k + 1) % 3];
@@ -676,9 +677,13 @@ TEST(RingCaps, PrismColumnsStopWhereTheLastRingIsAsWideAsItsTopLayerIsThick)
             const double top = std::max(distance(x[column(a, L)], x[column(a, L - 1)]),
                                         distance(x[column(b, L)], x[column(b, L - 1)]));
             EXPECT_GE(distance(x[column(a, L)], x[column(b, L)]), 0.8 * top * (1 - 1e-9)) << a << "-" << b;
+            closest = std::min(closest, distance(x[column(a, L)], x[column(b, L)]) / top);
             ++segments;
         }
     EXPECT_EQ(segments, 2 * around); // both caps' rims
+    // Not cut much further than that asks: the closest segment is within
+    // two rounds' worth (1.25 squared) of the bound.
+    EXPECT_LT(closest, 0.8 * 1.25 * 1.25) << closest;
 }
 
 } // namespace
