@@ -20,7 +20,7 @@ packages=(
   googletest libgtest-dev libbenchmark-dev
   clang libclang-rt-14-dev
   openfoam python3
-  pybind11-dev python3-dev python3-gmsh python3-numpy
+  pybind11-dev python3-dev python3-gmsh python3-numpy python3-meshio
   gmsh
   locales
 )

@@ -1,6 +1,7 @@
 # `cmake --install build --prefix P`: the command line (bin/scalemesh), the
 # library (include/scalemesh/, lib/libscalemesh.a over the stage libraries in
-# lib/scalemesh/), the Python module (lib/python3/dist-packages) and a CMake
+# lib/scalemesh/), the Python module and its type stub
+# (lib/python3/dist-packages) and a CMake
 # package, lib/cmake/scalemesh, for
 #   find_package(scalemesh REQUIRED)
 #   target_link_libraries(app PRIVATE scalemesh::scalemesh)
@@ -29,6 +30,8 @@ install(FILES include/scalemesh/scalemesh.h include/scalemesh/mesh.h include/sca
 set(SCALEMESH_PYTHON_INSTALL_DIR "lib/python3/dist-packages" CACHE STRING
     "Where the Python module is installed, relative to the install prefix")
 install(TARGETS scalemesh_python LIBRARY DESTINATION "${SCALEMESH_PYTHON_INSTALL_DIR}")
+# Its type stub, beside it (PEP 484: a .pyi next to the extension module).
+install(FILES src/python/scalemesh.pyi DESTINATION "${SCALEMESH_PYTHON_INSTALL_DIR}")
 install(EXPORT scalemeshTargets NAMESPACE scalemesh:: DESTINATION "${SCALEMESH_CMAKE_DIR}")
 
 configure_package_config_file(cmake/scalemeshConfig.cmake.in "${PROJECT_BINARY_DIR}/scalemeshConfig.cmake"
@@ -58,8 +61,9 @@ set(CPACK_GENERATOR DEB)
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
 set(CPACK_DEBIAN_PACKAGE_SECTION science)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
-# The Allrun script each OpenFOAM case gets runs Debian's OpenFOAM.
-set(CPACK_DEBIAN_PACKAGE_SUGGESTS "openfoam")
+# The Allrun script each OpenFOAM case gets runs Debian's OpenFOAM; the
+# Python module's MeshResult.to_meshio imports meshio.
+set(CPACK_DEBIAN_PACKAGE_SUGGESTS "openfoam, python3-meshio")
 # The Python module imports numpy and speaks to gmsh.py's model.
 set(CPACK_DEBIAN_PACKAGE_RECOMMENDS "python3-numpy, python3-gmsh")
 include(CPack)

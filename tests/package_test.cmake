@@ -24,7 +24,8 @@ endfunction()
 step("install" "${CMAKE_COMMAND}" --install "${BUILD_DIR}" --prefix "${prefix}")
 foreach(file bin/scalemesh include/scalemesh/scalemesh.h include/scalemesh/mesh.h include/scalemesh/errors.h
              lib/libscalemesh.a lib/cmake/scalemesh/scalemeshConfig.cmake
-             lib/cmake/scalemesh/scalemeshConfigVersion.cmake lib/cmake/scalemesh/scalemeshTargets.cmake)
+             lib/cmake/scalemesh/scalemeshConfigVersion.cmake lib/cmake/scalemesh/scalemeshTargets.cmake
+             lib/python3/dist-packages/scalemesh.pyi)
   if(NOT EXISTS "${prefix}/${file}")
     message(FATAL_ERROR "the install has no ${file}")
   endif()

@@ -32,7 +32,8 @@ struct GmshModelOptions {
 
 // What mesh_gmsh_model added to the current model, and the mesh itself.
 struct GmshModelResult {
-    MeshResult mesh;                  // as mesh_surface returns it
+    MeshResult mesh;                  // as mesh_surface returns it, its run kept for write_openfoam,
+                                      // write_msh and report_json (whose patches are all walls)
     int volume = -1;                  // tag of the discrete volume entity holding the tets
     std::vector<int> patch_surfaces;  // patch id -> tag of its discrete surface entity (-1: patch without triangles)
     int volume_group = -1;            // tag of the physical volume `volume_name`
@@ -80,7 +81,8 @@ struct GmshModelResult {
 // Throws InputError for a session without a model, an unknown physical
 // group, surface entities without triangles or with other 2D elements
 // (quadrangles, second-order triangles), an entity in two patch groups, a
-// surface that is not closed and 2-manifold, or bad options; StageError when
+// surface that is not closed and 2-manifold, options with openings (the
+// model's patches are its physical surfaces), or bad options; StageError when
 // a stage fails, or when Gmsh refuses an addition (the model may then hold
 // part of the additions).
 GmshModelResult mesh_gmsh_model(const GmshModelOptions& model = {}, const MeshOptions& options = {});

@@ -1,12 +1,14 @@
 #pragma once
-// scalemesh as a library: a closed surface, or an image, in; a layered
-// tetrahedral mesh for CFD out, as flat arrays (the layout of Gmsh's
+// scalemesh as a library: a surface (closed or open-ended), or an image, in;
+// a layered tetrahedral mesh for CFD out, as flat arrays (the layout of Gmsh's
 // gmsh::model::mesh::getNodes and getElements, of NumPy and of libigl's V, F,
-// T). The stages, parameters and guarantees are those of `scalemesh run`
-// (docs/method.md, docs/case-file.md); the library never prints, never exits
-// and changes no process-wide setting (threads run in a TBB arena of its own),
-// but for the few that mesh_image and, with layers = "prisms", mesh_surface
-// list. Its options are read alike under any LC_NUMERIC; ITK's and Gmsh's
+// T), and from it what `scalemesh run` writes: the OpenFOAM case
+// (write_openfoam), the .msh with physical groups and views (write_msh) and
+// the report (report_json). The stages, parameters and guarantees are those
+// of `scalemesh run` (docs/method.md, docs/case-file.md); the library never
+// prints, never exits and changes no process-wide setting (threads run in a
+// TBB arena of its own), but for the few that mesh_image, write_msh and, with
+// layers = "prisms", mesh_surface list. Its options are read alike under any LC_NUMERIC; ITK's and Gmsh's
 // file readers follow the locale the host set.
 //
 // Errors are the exceptions of <scalemesh/errors.h>, all derived from
@@ -15,15 +17,21 @@
 // could not establish a fact it promises, naming the stage and elements).
 // Include <scalemesh/scalemesh.h> to have both.
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 namespace scalemesh {
+
+namespace detail {
+struct RunState; // the run behind a MeshResult (MeshResult::run), private to the library
+}
 
 // A length in mm or in voxel widths. For a surface input the "voxel width" is
 // the mean edge length of its triangles, as for a surface file in a case.
@@ -32,6 +40,35 @@ struct MeshLength {
     bool voxels = false;
     static MeshLength mm(double v) { return {v, false}; }
     static MeshLength in_voxels(double v) { return {v, true}; }
+};
+
+// An inlet or outlet: a [[openings]] table of the case file (docs/case-file.md),
+// the same keys, checked as the case file's are (InputError naming the
+// opening and the key). Where it is, by exactly one of:
+//   - a clip plane, point and normal (and optionally radius): the lumen is
+//     cut there and capped flat;
+//   - border, a side of the image (mesh_image): the cross-sections where the
+//     segmentation runs off the image, cut `inset` inside it;
+//   - near, an open end of an open surface: the end whose centre is nearest
+//     the point, cut flat just inside its rim;
+//   - label, a flat cap of a surface file's face labels (mesh_image on a
+//     .vtp or .msh; mesh_surface's labels are patches, not caps).
+// Each opening becomes a patch of its name; an open end no opening names
+// becomes one of its own ("inlet" for the largest when no opening is an
+// inlet, then outlet_1, outlet_2, ...).
+struct MeshOpening {
+    std::string name = {};                     // the patch: letters, digits and '_', not a digit first, not "wall"
+    std::string type = {};                     // "inlet" or "outlet" (the flow enters at inlets)
+    std::optional<std::array<double, 3>> point = {};  // clip plane: a point inside the lumen (mm)
+    std::optional<std::array<double, 3>> normal = {}; // clip plane: its normal, pointing out of the lumen
+    double radius = 0;                         // clip plane: only the crossing within this distance of `point`
+                                               // is cut (mm); 0: the plane must cross the lumen exactly once
+    std::string border = {};                   // "x-", "x+", "y-", "y+", "z-" or "z+"; empty: not a border opening
+    std::optional<MeshLength> inset = {};      // border: how far inside the image face to cut; empty: "auto"
+    std::optional<std::array<double, 3>> near = {}; // open end: the one nearest this point (mm)
+    std::optional<std::int32_t> label = {};    // open end: the flat cap of this face label
+    double extension = 0;                      // flow extension: a straight tube this many cap diameters long
+                                               // added beyond the cap; 0: none, at most 100
 };
 
 // The parameters of a run. A default-constructed MeshOptions holds the
@@ -69,20 +106,30 @@ struct MeshOptions {
     std::int64_t max_memory = 0;       // bytes the run may use (estimated before the heavy stages);
                                        // 0: the machine's physical memory
 
+    // [[openings]], in order: patches 1, 2, ... of the mesh (patch 0 is
+    // "wall"). Empty: a closed surface has none; an open one gets one per
+    // open end, named as MeshOpening says.
+    std::vector<MeshOpening> openings;
+
     // Called when a stage starts (seconds < 0) and when it ends, with the
     // stage's one-line summary; on the calling thread. Empty: no calls.
     std::function<void(const std::string& stage, double seconds, const std::string& summary)> progress;
 };
 
-// A closed, 2-manifold, triangulated surface in mm, outward or inward wound
-// (inward winding is reversed, as for surface files).
+// A triangulated surface in mm, outward or inward wound (inward winding is
+// reversed, as for surface files): closed and 2-manifold, or open-ended as
+// the clipped vessels of VMTK, SimVascular or 3D Slicer are, a 2-manifold
+// whose open boundary loops (of 6 edges or more) are the vessels' ends; each
+// end is cut flat and capped, and becomes an opening (MeshOptions::openings).
 struct SurfaceInput {
     std::vector<double> points;          // 3N: x0 y0 z0 x1 y1 z1 ... (mm)
     std::vector<std::size_t> triangles;  // 3M: 0-based indices into points, three per triangle
     // Optional, empty or one per triangle: a label per input triangle. Each
     // boundary triangle of the mesh gets the label of the input triangle
     // nearest its centroid (the mesh follows the input surface within the
-    // smoothing reach), as its patch id.
+    // smoothing reach), as its patch id. Closed surfaces without openings
+    // only (InputError otherwise); write_openfoam writes every such patch as
+    // a wall, so a flow case needs openings instead.
     std::vector<std::int32_t> labels;
     // Optional names of the labels: label_names[i] names label i; missing
     // names become "patch_<i>".
@@ -101,7 +148,9 @@ struct ImageOptions {
     std::string units = "mm";            // surface files only: "mm", "cm", "m" or "um"
 };
 
-// The layered tetrahedral mesh, in mm, as flat arrays.
+// The layered tetrahedral mesh, in mm, as flat arrays, and the run that made
+// it (`run`), from which write_openfoam, write_msh and report_json write
+// what `scalemesh run` writes.
 struct MeshResult {
     std::vector<double> points;          // 3N: x y z per point (mm)
     std::vector<std::size_t> tets;       // 4T: 0-based point indices, positively oriented:
@@ -133,17 +182,34 @@ struct MeshResult {
     std::vector<double> aspect_ratio;
     std::vector<std::int32_t> tet_layer;
 
+    // The run behind the arrays: the stages' own results (the volume mesh
+    // with its adjacency, the sizing fields, the layer columns, the openings'
+    // caps, the stage times) and the options, checked. Shared by copies of
+    // the result and never changed: the writers write the mesh as the run
+    // made it, so changing the arrays above changes nothing they write (and
+    // clearing them, to save memory, loses nothing they need). It holds the
+    // run's memory (the volume mesh again, its face adjacency and the
+    // stages' surfaces) until the last copy is gone; reset it when no writer
+    // will be called. Empty in a MeshResult the library did not make; the
+    // writers then throw InputError.
+    std::shared_ptr<const detail::RunState> run;
+
     std::size_t point_count() const { return points.size() / 3; }
     std::size_t tet_count() const { return tets.size() / 4; }
     std::size_t boundary_count() const { return boundary_triangles.size() / 3; }
 };
 
-// Meshes a closed surface: volume-conserving smoothing, the feature size
-// field, remeshing to K/M d, and the layered volume mesh (the stages of
+// Meshes a surface: its open ends (if any) closed for the stages, volume-
+// conserving smoothing, the openings cut and capped, the feature size field,
+// remeshing to K/M d, and the layered volume mesh (the stages of
 // `scalemesh run` for a surface file). The input is checked first: InputError
 // for a size that is not a multiple of 3, an index out of range, a NaN or
-// infinite coordinate, labels of the wrong length, or a surface that is not
-// closed and 2-manifold; StageError when a stage fails.
+// infinite coordinate, labels of the wrong length, labels on an open surface
+// or with openings, a surface that is neither closed and 2-manifold nor a
+// 2-manifold with open ends, or one that crosses itself, and for openings as
+// the case reader checks [[openings]] (naming the opening and the key) and as
+// the openings stage finds them (a point outside the surface, an open end no
+// opening can name); StageError when a stage fails.
 MeshResult mesh_surface(const SurfaceInput& surface, const MeshOptions& options = {});
 
 // Meshes an image (.vdb, .nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd, .vti) or a
@@ -163,5 +229,82 @@ MeshResult mesh_surface(const SurfaceInput& surface, const MeshOptions& options 
 // has no way to read a level back, so it cannot be restored).
 MeshResult mesh_image(const std::filesystem::path& path, const MeshOptions& options = {},
                       const ImageOptions& image = {});
+
+// The OpenFOAM case's settings: the case file's [flow] and the OpenFOAM keys
+// of its [output], with its defaults, checked as the case file's are
+// (InputError naming the key).
+struct OpenFoamOptions {
+    double viscosity = 3.3e-6;   // m^2/s, kinematic, (0, 1]; blood is about 3.3e-6
+    double inlet_speed = 0.1;    // m/s, uniform inflow normal to each inlet, (0, 1000]
+    bool binary = false;         // polyMesh "format binary" (openfoam_format = "binary")
+    bool layer_prisms = true;    // the three tets filling a layer prism written as one prism cell
+};
+
+// What write_openfoam wrote (report.json's "openfoam" section holds more).
+struct OpenFoamCase {
+    std::int64_t cells = 0, faces = 0, internal_faces = 0;
+    std::int64_t layer_prisms = 0;           // cells that are whole layer prisms
+    std::vector<std::string> patch_names;    // in the order of constant/polyMesh/boundary
+    std::vector<std::int64_t> patch_faces;   // per patch, same order
+    bool flow_fields = false;                // 0/U and 0/p written: the mesh has an inlet and an outlet
+    std::vector<std::string> warnings;       // as report.json's: doubts about the input, floors the mesh misses,
+                                             // faces checkMesh would fail, openings that pose no flow
+};
+
+// Writes the OpenFOAM case of `result` into `case_dir` (made if missing) as
+// `scalemesh run` writes it, by the same writers after the same checks:
+// constant/polyMesh (points, faces, owner, neighbour, boundary; metres; the
+// layer prisms as prism cells where OpenFOAM's own cell checks pass them;
+// patch "wall" of type wall, one patch per opening), constant/
+// transportProperties and turbulenceProperties, system/ (controlDict,
+// fvSchemes, fvSolution for simpleFoam), 0/U and 0/p when there are an inlet
+// and an outlet, an executable Allrun (checkMesh, then simpleFoam), and
+// report.json (report_json's, with the "openfoam" section and the files).
+// Every file is finished under a temporary name and all are moved into place
+// together: a failure leaves `case_dir` as it was (and removes it when this
+// call made it). Files of an earlier case that this one does not write (0/
+// when the flow fields are not) are removed when the earlier report.json
+// lists them. Throws InputError for a result the library did not make or bad
+// options, IoError when a file cannot be written, StageError when the mesh
+// fails the writers' validation. No process-wide effect.
+OpenFoamCase write_openfoam(const MeshResult& result, const std::filesystem::path& case_dir,
+                            const OpenFoamOptions& options = {});
+
+// The .msh file's format: the case file's [output] msh_version and
+// msh_binary, and whose Gmsh session writes it.
+struct MshOptions {
+    double version = 4.1;        // 4.1 or 2.2 (gmshToFoam and older tools read 2.2)
+    bool binary = false;
+    // The host has Gmsh initialised (gmsh::initialize; gmsh.initialize() in
+    // Python): the file is written through the host's session, on a scratch
+    // model of its own that is removed afterwards, the host's current model
+    // and options as they were (InputError when Gmsh has no model: not
+    // initialised). false: through a session of the library's own,
+    // gmsh::initialize before and gmsh::finalize after, which would end a
+    // session the host holds.
+    bool host_gmsh_session = false;
+};
+
+// Writes the volume mesh of `result` to `path` (.msh) as `scalemesh run`
+// writes its mesh.msh: the tets in a physical volume "fluid", the boundary
+// triangles in one physical surface per patch (named as patch_names), the
+// views D, D_out, d, edge_length_ratio and layers (NodeData on the boundary
+// nodes) and aspect_ratio and layer (ElementData on the tets), a $Comments
+// section with the version, input and parameters. The mesh is validated
+// first and the file appears whole or not at all. One process-wide effect:
+// without MshOptions::host_gmsh_session, the Gmsh session of the library's
+// own (gmsh::initialize, gmsh::finalize), so do not call it so while the
+// host has Gmsh initialised. Throws InputError for a path not ending in
+// .msh, a result the library did not make or bad options, IoError,
+// StageError as write_openfoam.
+void write_msh(const MeshResult& result, const std::filesystem::path& path, const MshOptions& options = {});
+
+// The report of the run behind `result`, the JSON text the report.json of
+// `scalemesh run` holds (docs/case-file.md) for a run that wrote no files:
+// version, input, parameters, stage times and summaries, surface facts,
+// sizing and remeshing statistics, the volume mesh's facts and quality
+// histograms, the layer account, openings, memory and warnings. Throws
+// InputError for a result the library did not make.
+std::string report_json(const MeshResult& result);
 
 } // namespace scalemesh

@@ -7,6 +7,7 @@
 
 #include "scalemesh/mesh.h"
 
+#include "api/run_state.h"
 #include "core/errors.h"
 #include "core/surface_mesh.h"
 #include "pipeline/case_config.h"
@@ -20,13 +21,7 @@
 
 namespace scalemesh {
 
-namespace {
-
-MeshLength public_length(const Length& l) { return {l.value, l.voxels}; }
-
-// A TOML float that reads back as exactly `v` (NaN and infinities too, which
-// the case reader then refuses with the key's name).
-std::string toml_number(double v)
+std::string detail::toml_number(double v)
 {
     if (std::isnan(v)) return "nan";
     if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
@@ -36,6 +31,26 @@ std::string toml_number(double v)
     if (out.find_first_of(".e") == std::string::npos) out += ".0";
     return out;
 }
+
+CaseConfig detail::with_case_keys(const CaseConfig& base, const std::string& sections, const std::string& source)
+{
+    // The [input] file only makes the text a case; it is never read.
+    const CaseConfig read = parse_case("[input]\nfile = \"surface-in-memory.ply\"\n" + sections, ".", source);
+    CaseConfig out = base;
+    out.viscosity = read.viscosity;
+    out.inlet_speed = read.inlet_speed;
+    out.openfoam_binary = read.openfoam_binary;
+    out.layer_prisms = read.layer_prisms;
+    out.msh_version = read.msh_version;
+    out.msh_binary = read.msh_binary;
+    return out;
+}
+
+namespace {
+
+using detail::toml_number;
+
+MeshLength public_length(const Length& l) { return {l.value, l.voxels}; }
 
 std::string toml_length(const MeshLength& l)
 {
@@ -72,6 +87,21 @@ CaseConfig case_for(const std::filesystem::path& file, const MeshOptions& o, con
     text += "[volume]\ngrowth = " + toml_number(o.growth) + "\nfirst_layer = " + toml_string(o.first_layer) +
             "\nlayers = " + toml_string(o.layers) + "\nlayer_tolerance = " + toml_number(o.layer_tolerance) + "\n";
     text += "[run]\nthreads = " + std::to_string(o.threads) + "\n";
+    for (const MeshOpening& opening : o.openings) {
+        const auto xyz = [](const std::array<double, 3>& v) {
+            return "[" + toml_number(v[0]) + ", " + toml_number(v[1]) + ", " + toml_number(v[2]) + "]";
+        };
+        text += "[[openings]]\nname = " + toml_string(opening.name) + "\n";
+        if (!opening.type.empty()) text += "type = " + toml_string(opening.type) + "\n";
+        if (opening.point) text += "point = " + xyz(*opening.point) + "\n";
+        if (opening.normal) text += "normal = " + xyz(*opening.normal) + "\n";
+        if (opening.radius != 0) text += "radius = " + toml_number(opening.radius) + "\n";
+        if (!opening.border.empty()) text += "border = " + toml_string(opening.border) + "\n";
+        if (opening.inset) text += "inset = " + toml_length(*opening.inset) + "\n";
+        if (opening.near) text += "near = " + xyz(*opening.near) + "\n";
+        if (opening.label) text += "label = " + std::to_string(*opening.label) + "\n";
+        if (opening.extension != 0) text += "extension = " + toml_number(opening.extension) + "\n";
+    }
     CaseConfig config = parse_case(text, ".", "mesh options");
     if (config.remesh_cycles < 1)
         throw InputError("mesh options: remesh_cycles = 0 builds no volume mesh", "give 1 to 100 cycles (default 3)");
@@ -95,6 +125,7 @@ PipelineRun run_for_mesh(const CaseConfig& config, const MeshOptions& options,
                         listener);
 }
 
+// The arrays of `run`'s mesh.
 MeshResult to_result(const PipelineRun& run, const CaseConfig& config)
 {
     const TetMesh mesh = export_mesh(run, config.K, config.M);
@@ -135,8 +166,24 @@ MeshResult to_result(const PipelineRun& run, const CaseConfig& config)
     return out;
 }
 
-// The input surface as a SurfaceMesh, checked: sizes, indices, coordinates,
-// labels, and closed and 2-manifold.
+// Keeps the run behind `result`'s arrays, for the writers; with
+// `relabelled`, the patches of the arrays (mesh_surface's labels) in place
+// of the run's.
+void keep_run(MeshResult& result, PipelineRun&& run, const CaseConfig& config, bool relabelled)
+{
+    auto state = std::make_shared<detail::RunState>();
+    state->config = config;
+    state->run = std::move(run);
+    if (relabelled) {
+        state->boundary_patch = result.boundary_patch;
+        state->patch_names = result.patch_names;
+    }
+    result.run = std::move(state);
+}
+
+// The input surface as a SurfaceMesh, checked: sizes, indices, coordinates
+// and labels (whether it is closed and 2-manifold, or 2-manifold with open
+// ends, the import stage checks, as for a surface file).
 SurfaceMesh checked_surface(const SurfaceInput& in)
 {
     if (in.points.size() % 3 != 0)
@@ -182,7 +229,6 @@ SurfaceMesh checked_surface(const SurfaceInput& in)
         }
         mesh.triangles.push_back(tri);
     }
-    require_closed_manifold(mesh, "the input surface");
     return mesh;
 }
 
@@ -302,6 +348,19 @@ MeshResult mesh_surface(const SurfaceInput& surface, const MeshOptions& options)
     // The case's [input] file is never read: run_pipeline takes the surface
     // in memory (the name only makes the case a surface case).
     const CaseConfig config = case_for("surface-in-memory.ply", options, {});
+    if (!surface.labels.empty()) {
+        // The labels name patches by the nearest input triangle, which an
+        // opening's cap (a new, flat face) has none of.
+        const int64_t open_edges = surface_facts(input).boundary_edges;
+        if (!config.openings.empty() || open_edges > 0)
+            throw InputError(open_edges > 0 ? "the input surface is open (" + std::to_string(open_edges) +
+                                                  " edges on one triangle only) and has labels (patches by the "
+                                                  "nearest input triangle, as mesh_gmsh_model's physical surfaces)"
+                                            : "the input surface has labels and the options give openings",
+                             "labels name the patches of a closed surface without openings (mesh_gmsh_model meshes "
+                             "closed surfaces only); for inlets and outlets give the surface without labels, "
+                             "with openings (an open surface's ends become openings of their own)");
+    }
     const LabelledSurface given{input, {}};
     PipelineRun run = run_for_mesh(config, options, &given);
     MeshResult result = to_result(run, config);
@@ -315,13 +374,17 @@ MeshResult mesh_surface(const SurfaceInput& surface, const MeshOptions& options)
                                              ? surface.label_names[p]
                                              : "patch_" + std::to_string(p));
     }
+    keep_run(result, std::move(run), config, !surface.labels.empty());
     return result;
 }
 
 MeshResult mesh_image(const std::filesystem::path& path, const MeshOptions& options, const ImageOptions& image)
 {
     const CaseConfig config = case_for(std::filesystem::absolute(path), options, image);
-    return to_result(run_for_mesh(config, options), config);
+    PipelineRun run = run_for_mesh(config, options);
+    MeshResult result = to_result(run, config);
+    keep_run(result, std::move(run), config, false);
+    return result;
 }
 
 } // namespace scalemesh

@@ -10,6 +10,7 @@
 
 #include "scalemesh/gmsh_model.h"
 
+#include "api/run_state.h"
 #include "core/errors.h"
 #include "exporters/gmsh_session.h"
 
@@ -22,6 +23,19 @@
 #include <utility>
 
 namespace scalemesh {
+
+void detail::require_gmsh_session(const std::string& hint)
+{
+    std::vector<std::string> models;
+    bool refused = false;
+    try {
+        gmsh::model::list(models);
+    } catch (const std::string&) {
+        refused = true;
+    }
+    if (refused || models.empty())
+        throw InputError("Gmsh has no model: it was not initialised, or was finalised", hint);
+}
 
 namespace {
 
@@ -36,21 +50,6 @@ template <class F> auto gmsh_call(const std::string& what, F&& f)
 }
 
 std::string entity_name(int tag) { return "surface entity " + std::to_string(tag); }
-
-void require_session()
-{
-    std::vector<std::string> models;
-    bool refused = false;
-    try {
-        gmsh::model::list(models);
-    } catch (const std::string&) {
-        refused = true;
-    }
-    if (refused || models.empty())
-        throw InputError("Gmsh has no model: it was not initialised, or was finalised",
-                         "call gmsh::initialize (gmsh.initialize() in Python) and build or merge a model with a "
-                         "2D mesh before meshing it with scalemesh");
-}
 
 // The surface entities to mesh, and the patch of each: 0 ("wall") or the
 // index of its non-wall physical surface's name in `names`.
@@ -344,7 +343,13 @@ GmshModelResult mesh_gmsh_model(const GmshModelOptions& model, const MeshOptions
 {
     if (model.volume_name.empty())
         throw InputError("the volume's physical group has no name", "give volume_name, e.g. \"fluid\"");
-    require_session();
+    if (!options.openings.empty())
+        throw InputError("mesh_gmsh_model takes no openings: the model's surface is closed, and its patches are "
+                         "its physical surfaces",
+                         "leave MeshOptions::openings empty; for inlets and outlets mesh the surface with "
+                         "mesh_surface and openings");
+    detail::require_gmsh_session("call gmsh::initialize (gmsh.initialize() in Python) and build or merge a model "
+                                 "with a 2D mesh before meshing it with scalemesh");
     // The host's session, adopted: the stages that reach Gmsh (the core of
     // layers = "prisms") work beside the host's model in it.
     const GmshSession host(GmshSession::Host{});

@@ -506,7 +506,7 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
     if (options.surface) {
         StageClock clock(run, listener, "import");
         run.input = "surface given by the caller";
-        clock.done(import_surface(*options.surface, "the surface given", config, run, surface));
+        clock.done(import_surface(*options.surface, "the input surface", config, run, surface));
     } else if (!config.file.empty() && is_surface_file(file)) {
         StageClock clock(run, listener, "import");
         run.input = file.string();

@@ -117,16 +117,16 @@ bool is_wall_patch(size_t p, size_t caps) { return p == 0 || p > caps; }
 
 } // namespace
 
-double intact_prism_share(const CaseResult& result)
+double intact_prism_share(const PipelineRun& run, const CaseOutputs& outputs)
 {
-    if (!result.polymesh || !result.run.volume) return 0;
-    const int layermaking = result.run.volume->layers.layermaking;
+    if (!outputs.polymesh || !run.volume) return 0;
+    const int layermaking = run.volume->layers.layermaking;
     int64_t wall_faces = 0;
-    const std::vector<int64_t>& patches = result.polymesh->patch_faces;
+    const std::vector<int64_t>& patches = outputs.polymesh->patch_faces;
     for (size_t p = 0; p < patches.size(); ++p)
-        if (is_wall_patch(p, result.run.caps.size())) wall_faces += patches[p];
+        if (is_wall_patch(p, run.caps.size())) wall_faces += patches[p];
     const int64_t wanted = wall_faces * layermaking;
-    return wanted > 0 ? static_cast<double>(result.layer_prisms) / static_cast<double>(wanted) : 0;
+    return wanted > 0 ? static_cast<double>(outputs.layer_prisms) / static_cast<double>(wanted) : 0;
 }
 
 std::vector<std::string> openfoam_check_warnings(const OpenFoamCellChecks& checks)
@@ -264,9 +264,8 @@ void write_text_file(const std::filesystem::path& path, const std::string& text)
     out.commit();
 }
 
-std::string report_json(const CaseConfig& config, const CaseResult& result)
+std::string report_json(const CaseConfig& config, const PipelineRun& run, const CaseOutputs& result)
 {
-    const PipelineRun& run = result.run;
     nlohmann::json report;
     report["scalemesh_version"] = SCALEMESH_VERSION;
     report["input"] = {{"source", run.input}, {"checksum_fnv1a64", run.input_checksum}, {"voxel_width_mm", run.voxel_width}};
@@ -487,7 +486,7 @@ std::string report_json(const CaseConfig& config, const CaseResult& result)
                               {"layer_prisms", result.layer_prisms},
                               {"layer_prisms_refused", result.layer_prisms_refused},
                               {"absorbed_tets", result.absorbed_tets},
-                              {"intact_prism_share", intact_prism_share(result)},
+                              {"intact_prism_share", intact_prism_share(run, result)},
                               {"max_non_orthogonality_deg", checks.max_non_orthogonality_deg},
                               {"tet_cells_min_dihedral_deg",
                                result.tet_cells ? nlohmann::json(result.tet_cells->min_dihedral_deg) : nlohmann::json()},
@@ -608,7 +607,56 @@ CaseResult run_and_write(const std::filesystem::path& dir, const CaseConfig& con
     result.run = run_pipeline(
         config, {.sizing = true, .remesh = config.remesh_cycles > 0, .volume = volume, .max_memory = max_memory},
         listener);
+    CaseConfig at = config;
+    at.directory = dir;
+    static_cast<CaseOutputs&>(result) = write_case_outputs(at, result.run, {.orphaned_partials = orphans});
+    return result;
+}
 
+} // namespace
+
+TetMesh case_mesh(const CaseConfig& config, const PipelineRun& run, const OutputRequest& request)
+{
+    TetMesh mesh = export_mesh(run, config.K, config.M);
+    if (request.boundary_patch) {
+        if (!run.caps.empty() || request.boundary_patch->size() != mesh.boundary_faces.size() || !request.patch_names)
+            throw StageError("export", "the boundary patches given do not fit the run's mesh (" +
+                                           std::to_string(request.boundary_patch->size()) + " for " +
+                                           std::to_string(mesh.boundary_faces.size()) + " faces, " +
+                                           std::to_string(run.caps.size()) + " openings)");
+        mesh.boundary_patch = *request.boundary_patch;
+        mesh.patch_names = *request.patch_names;
+    }
+    return mesh;
+}
+
+std::vector<std::string> msh_comments(const CaseConfig& config, const PipelineRun& run)
+{
+    std::ostringstream parameters;
+    parameters.precision(12);
+    parameters << "parameters K " << config.K << " M " << config.M << " G " << config.G << " L_min " << run.L_min
+               << " mm L_max " << run.L_max << " mm";
+    return {"scalemesh " SCALEMESH_VERSION,
+            "input " + run.input + (run.input_checksum.empty() ? "" : " fnv1a64 " + run.input_checksum),
+            parameters.str()};
+}
+
+namespace {
+
+// Whether `relative` (to the case directory) is a file or directory of the
+// OpenFOAM case the writers make.
+bool openfoam_output(const std::filesystem::path& relative)
+{
+    const std::string first = relative.begin() == relative.end() ? "" : relative.begin()->string();
+    return first == "constant" || first == "system" || first == "0" || first == "Allrun";
+}
+
+} // namespace
+
+CaseOutputs write_case_outputs(const CaseConfig& config, const PipelineRun& run, const OutputRequest& request)
+{
+    const std::filesystem::path& dir = config.directory;
+    CaseOutputs result;
     // The outputs are finished under temporary names first and moved into
     // place only when all are complete, so a failure (or an interruption,
     // through remove_pending_outputs) leaves the case directory as it was.
@@ -618,9 +666,9 @@ CaseResult run_and_write(const std::filesystem::path& dir, const CaseConfig& con
     // judged on the cells the solver gets (below): a layer prism's own
     // tets are flat by design and never reach it.
     const bool prism_cells = config.layers == LayerMode::prisms && config.openfoam && config.layer_prisms;
-    result.warnings = floor_warnings(config, result.run, prism_cells);
-    result.input_warnings = std::min(result.run.warnings.size(), result.warnings.size());
-    result.orphaned_partials = orphans;
+    result.warnings = floor_warnings(config, run, prism_cells);
+    result.input_warnings = std::min(run.warnings.size(), result.warnings.size());
+    result.orphaned_partials = request.orphaned_partials;
     StagedOutputs pending;
     const auto stage = [&](const std::string& name) {
         pending.push_back(std::make_unique<AtomicOutput>(dir / name));
@@ -629,47 +677,42 @@ CaseResult run_and_write(const std::filesystem::path& dir, const CaseConfig& con
     };
     SurfaceWriteOptions surface_options;
     // Provenance in the .msh files' $Comments section, as in report.json.
-    const PipelineRun& run = result.run;
-    std::ostringstream parameters;
-    parameters.precision(12);
-    parameters << "parameters K " << config.K << " M " << config.M << " G " << config.G << " L_min " << run.L_min
-               << " mm L_max " << run.L_max << " mm";
-    const std::vector<std::string> comments = {
-        "scalemesh " SCALEMESH_VERSION,
-        "input " + run.input + (run.input_checksum.empty() ? "" : " fnv1a64 " + run.input_checksum),
-        parameters.str()};
+    const std::vector<std::string> comments = msh_comments(config, run);
     surface_options.msh_comments = comments;
     surface_options.msh_version = config.msh_version;
     surface_options.msh_binary = config.msh_binary;
-    const std::vector<VertexField> fields = surface_fields(result.run, config.K, config.M);
-    for (const std::string& name : config.surface_outputs)
-        write_surface(final_surface(result.run), fields, stage(name), surface_options);
+    if (!config.surface_outputs.empty()) {
+        const std::vector<VertexField> fields = surface_fields(run, config.K, config.M);
+        for (const std::string& name : config.surface_outputs)
+            write_surface(final_surface(run), fields, stage(name), surface_options);
+    }
 
-    if (result.run.volume) {
-        const TetMesh mesh = export_mesh(result.run, config.K, config.M);
+    if (run.volume) {
+        const TetMesh mesh = case_mesh(config, run, request);
         for (const std::string& name : config.volume_outputs) {
             if (std::filesystem::path(name).extension() == ".vtk") write_volume_vtk(mesh, stage(name));
             else write_volume_msh(mesh, stage(name), {.msh_version = config.msh_version, .binary = config.msh_binary,
-                                                      .comments = comments, .adjacency = &result.run.volume->adjacency});
+                                                      .comments = comments, .adjacency = &run.volume->adjacency});
         }
         // Fig. 19: the aspect-ratio histograms before and after improvement.
-        const VolumeResult& v = *result.run.volume;
+        const VolumeResult& v = *run.volume;
         const auto bins = [](const QualityReport& q) { return std::vector<int64_t>(q.histogram.begin(), q.histogram.end()); };
-        write_histogram_png({{"before flips", bins(v.before_flips)},
-                             {"after flips", bins(v.after_flips)},
-                             {"after sliver removal", bins(v.after_slivers)}},
-                            stage("quality.png"));
+        if (request.histograms)
+            write_histogram_png({{"before flips", bins(v.before_flips)},
+                                 {"after flips", bins(v.after_flips)},
+                                 {"after sliver removal", bins(v.after_slivers)}},
+                                stage("quality.png"));
         if (config.openfoam) {
             // Walls are OpenFOAM `wall` patches, openings generic `patch`es.
             std::vector<std::string> types = {"wall"};
-            for (size_t c = 0; c < result.run.caps.size(); ++c) types.push_back("patch");
+            for (size_t c = 0; c < run.caps.size(); ++c) types.push_back("patch");
             // OpenFOAM's own checks on the cells before they are written:
             // a layer prism on a face that checkMesh would fail (beyond 70
             // degrees, too skew, or a face pyramid not positive from the
             // prism's centre as OpenFOAM computes it) is split back into its
             // tets, until there is none. What is left on single tets is
             // warned of.
-            const VolumeResult& v = *result.run.volume;
+            const VolumeResult& v = *run.volume;
             OpenFoamCellChecks checks;
             const auto check = [&](const LayerPrismCells& c) {
                 checks = openfoam_cell_checks(mesh, v.adjacency, c.cell_of_tet, c.cells, {},
@@ -712,31 +755,31 @@ CaseResult run_and_write(const std::filesystem::path& dir, const CaseConfig& con
             }
             const PolyMeshCounts counts =
                 write_polymesh(mesh, dir, {.binary = config.openfoam_binary, .scale = 1e-3, .patch_types = types,
-                                     .adjacency = &result.run.volume->adjacency,
+                                     .adjacency = &run.volume->adjacency,
                                      .cell_of_tet = config.layer_prisms ? &cells.cell_of_tet : nullptr,
                                      .cells = cells.cells,
                                      .quad_cells = config.layer_prisms ? &cells.prism_cell : nullptr,
                                      .staged = &pending});
             result.polymesh = counts;
-            std::vector<std::string> names;
+            std::vector<std::string>& names = result.patch_names;
             std::vector<PatchRole> roles;
             for (size_t p = 0; p < counts.patch_faces.size(); ++p) {
                 names.push_back(p < mesh.patch_names.size() ? mesh.patch_names[p] : (p == 0 ? "wall" : "patch_" + std::to_string(p)));
-                roles.push_back(is_wall_patch(p, result.run.caps.size()) ? PatchRole::Wall
-                                : result.run.caps[p - 1].type == OpeningType::Inlet ? PatchRole::Inlet
+                roles.push_back(is_wall_patch(p, run.caps.size()) ? PatchRole::Wall
+                                : run.caps[p - 1].type == OpeningType::Inlet ? PatchRole::Inlet
                                                                                     : PatchRole::Outlet);
             }
             result.flow_case = write_openfoam_case(dir, names, roles,
                                                    {.kinematic_viscosity = config.viscosity,
                                                     .inlet_speed = config.inlet_speed,
                                                     .staged = &pending});
-            if (!result.flow_case && !result.run.caps.empty()) {
+            if (!result.flow_case && !run.caps.empty()) {
                 int inlets = 0;
                 for (const PatchRole role : roles) inlets += role == PatchRole::Inlet;
                 result.warnings.insert(
                     result.warnings.begin() + static_cast<std::ptrdiff_t>(result.input_warnings++),
-                    "the case has " + std::to_string(result.run.caps.size()) + " opening" +
-                    (result.run.caps.size() == 1 ? "" : "s") + " but " +
+                    "the case has " + std::to_string(run.caps.size()) + " opening" +
+                    (run.caps.size() == 1 ? "" : "s") + " but " +
                     (inlets == 0 ? std::string("no inlet") : std::string("no outlet")) +
                     ", so no flow is posed: 0/U and 0/p are not written; give [[openings]] at least one "
                     "type = \"inlet\" and one outlet");
@@ -751,7 +794,11 @@ CaseResult run_and_write(const std::filesystem::path& dir, const CaseConfig& con
     }
 
     result.removed = stale_outputs(config, result.written);
-    write_text_file(stage("report.json"), report_json(config, result));
+    if (!request.remove_every_stale_output)
+        std::erase_if(result.removed, [&](const std::filesystem::path& p) {
+            return !openfoam_output(std::filesystem::relative(p, dir));
+        });
+    write_text_file(stage("report.json"), report_json(config, run, result));
     for (const auto& out : pending)
         if (std::filesystem::is_directory(out->path()))
             throw IoError(out->path().string(), "a directory has this name, so the output cannot be written; "
@@ -771,7 +818,5 @@ CaseResult run_and_write(const std::filesystem::path& dir, const CaseConfig& con
     }
     return result;
 }
-
-} // namespace
 
 } // namespace scalemesh

@@ -1,6 +1,7 @@
 #pragma once
 // `scalemesh run CASE_DIR`: the stages a case asks for, then its outputs and
-// report.json written into the case directory, each file atomically.
+// report.json written into the case directory, each file atomically. The
+// writers (write_case_outputs) are the library's too (src/api/outputs.cpp).
 
 #include "exporters/polymesh_writer.h"
 #include "pipeline/pipeline.h"
@@ -22,13 +23,15 @@ struct CellFloors {
     std::string what = "tet";      // the cells measured, for the sentences ("tet", "tet cell")
 };
 
-struct CaseResult {
-    PipelineRun run;
+// What a run's writers made of it (write_case_outputs): every field of a
+// case's result but the run itself.
+struct CaseOutputs {
     std::vector<std::filesystem::path> written; // in the order written, report.json last
     std::vector<std::filesystem::path> removed; // an earlier run's outputs (its report.json's files) this run did
                                                 // not write, removed once this run's are in place
     int64_t orphaned_partials = 0;              // unfinished outputs (*.partial-PID*) of runs no longer alive, removed
     std::optional<PolyMeshCounts> polymesh;     // when the OpenFOAM case was written
+    std::vector<std::string> patch_names;       // of the polyMesh's patches, in the order of its boundary file
     int64_t layer_prisms = 0;                   // its cells of three tets filling a layer prism
     int64_t layer_prisms_refused = 0;           // prisms filled by three tets left as tets (not star-shaped, or a
                                                 // face beyond the bound by the tets' or by OpenFOAM's measure)
@@ -42,6 +45,11 @@ struct CaseResult {
     std::vector<std::string> warnings;          // the run's floors it missed (floor_warnings)
     size_t input_warnings = 0;                  // of `warnings`, the first ones are about the input and the case
                                                 // (units, face labels, openings that pose no flow), not floors
+};
+
+// `scalemesh run`'s result: the run, and what its writers made of it.
+struct CaseResult : CaseOutputs {
+    PipelineRun run;
 };
 
 // The run's warnings about its input (PipelineRun::warnings: an implausible
@@ -81,7 +89,8 @@ std::vector<std::string> openfoam_check_warnings(const OpenFoamCellChecks& check
 // The layer prisms written as single cells, over the wall faces times the
 // layers that make prisms (layers.layermaking): 1 when every wall face
 // carries a whole stack of intact prisms. 0 without an OpenFOAM case.
-double intact_prism_share(const CaseResult& result);
+double intact_prism_share(const PipelineRun& run, const CaseOutputs& outputs);
+inline double intact_prism_share(const CaseResult& result) { return intact_prism_share(result.run, result); }
 
 // Throws InputError, IoError or StageError; a case that fails writes nothing.
 // `threads`, when given, overrides the case file's [run] threads;
@@ -90,11 +99,53 @@ double intact_prism_share(const CaseResult& result);
 CaseResult run_case(const std::filesystem::path& dir, const StageListener& listener = {},
                     std::optional<int> threads = {}, int64_t max_memory = 0);
 
+// What write_case_outputs writes besides the outputs `config` lists.
+struct OutputRequest {
+    bool histograms = true;              // quality.png, the aspect-ratio histograms of Fig. 19
+    // The boundary patches of the volume mesh written, in place of the run's
+    // (the library's nearest-label patches): one per boundary face, and the
+    // name per patch id. Only with a run without openings: every patch is
+    // then a wall. Not owned.
+    const std::vector<int32_t>* boundary_patch = nullptr;
+    const std::vector<std::string>* patch_names = nullptr;
+    // Which of an earlier run's outputs (listed in config.directory's
+    // report.json) that this one does not write are removed: every one, as
+    // `scalemesh run` does, or (false) those of the OpenFOAM case only
+    // (constant/, system/, 0/, Allrun), as the library's write_openfoam does,
+    // which writes no other.
+    bool remove_every_stale_output = true;
+    int64_t orphaned_partials = 0;       // reported in report.json
+};
+
+// The outputs of `run` that `config` asks for, written into
+// config.directory as `scalemesh run` writes them: the [output] surface and
+// volume files, quality.png, with [output] openfoam the OpenFOAM case
+// (constant/polyMesh with its layer prism cells, after OpenFOAM's own cell
+// checks, and system/, constant/, 0/ and Allrun) and last report.json. All
+// are finished under temporary names and moved into place together, so a
+// failure leaves the directory as it was; then an earlier run's outputs this
+// one did not write are removed (OutputRequest::remove_every_stale_output).
+// Throws InputError, IoError or StageError (a mesh the writers' validation
+// refuses).
+CaseOutputs write_case_outputs(const CaseConfig& config, const PipelineRun& run, const OutputRequest& request = {});
+
+// The volume mesh as the writers write it: export_mesh's, with the patches
+// of `request` when it gives them. Throws StageError when they do not fit.
+TetMesh case_mesh(const CaseConfig& config, const PipelineRun& run, const OutputRequest& request = {});
+
+// The $Comments lines of the .msh files a run writes: the version, the input
+// and its checksum, and the parameters.
+std::vector<std::string> msh_comments(const CaseConfig& config, const PipelineRun& run);
+
 // report.json of a run: version, input and its checksum, parameters, stage
 // times, surface facts, sizing and remeshing statistics, the volume mesh's
 // facts and quality histograms (Fig. 19), the OpenFOAM counts and the files
-// written.
-std::string report_json(const CaseConfig& config, const CaseResult& result);
+// written (paths relative to config.directory).
+std::string report_json(const CaseConfig& config, const PipelineRun& run, const CaseOutputs& outputs);
+inline std::string report_json(const CaseConfig& config, const CaseResult& result)
+{
+    return report_json(config, result.run, result);
+}
 
 // Writes `text` to `path` atomically. Throws IoError.
 void write_text_file(const std::filesystem::path& path, const std::string& text);

@@ -1,7 +1,10 @@
 // The Python module `scalemesh` (pybind11): mesh_surface on NumPy arrays or
 // flat sequences in gmsh.py's layout, and mesh_gmsh_model on the current
 // model of the gmsh.py session, which shares this process's libgmsh with the
-// library (src/python/CMakeLists.txt). Results are dicts of NumPy arrays.
+// library (src/python/CMakeLists.txt). Results are MeshResult objects: a
+// read-only mapping of NumPy arrays (as the dicts the module returned
+// before), with the library's writers as methods (write_openfoam, write_msh,
+// report, to_meshio). Its type stub is scalemesh.pyi, installed beside it.
 // Errors: InputError -> ValueError, StageError -> RuntimeError,
 // IoError -> OSError, with the library's message.
 
@@ -13,17 +16,21 @@
 #include <pybind11/stl.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <set>
 #include <string>
 #include <unordered_map>
 
 namespace py = pybind11;
+using namespace pybind11::literals;
 
 namespace {
 
@@ -58,7 +65,71 @@ MeshLength length_option(const char* key, const py::handle& value)
 
 const char* const option_names[] = {"K", "M", "G", "L_min", "L_max", "curvature", "smoothing_sweeps",
                                     "smoothing_omega", "smoothing_reach", "remesh_cycles", "growth", "first_layer",
-                                    "layers", "layer_tolerance", "threads", "max_memory", "progress"};
+                                    "layers", "layer_tolerance", "threads", "max_memory", "openings", "progress"};
+
+const char* const opening_keys[] = {"name",   "type",  "point", "normal", "radius",
+                                    "border", "inset", "near",  "label",  "extension"};
+
+// A value of openings[i][key], converted, or a TypeError naming it.
+template <class T> T opening_value(const std::string& where, const py::handle& value, const char* expected)
+{
+    try {
+        return value.cast<T>();
+    } catch (const py::cast_error&) {
+        throw py::type_error(where + " is " + std::string(py::str(py::type::handle_of(value).attr("__name__"))) +
+                             ", not " + expected);
+    }
+}
+
+std::array<double, 3> opening_vector(const std::string& where, const py::handle& value)
+{
+    const auto array = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(value);
+    if (!array || array.size() != 3)
+        throw py::value_error(where + " is not 3 numbers. Hint: give [x, y, z] in mm");
+    return {array.data()[0], array.data()[1], array.data()[2]};
+}
+
+// One [[openings]] table of the case file as a dict with its keys; the
+// library checks the values as the case reader does (ValueError naming the
+// opening and the key).
+scalemesh::MeshOpening opening_option(size_t index, const py::handle& item)
+{
+    const std::string at = "openings[" + std::to_string(index) + "]";
+    if (!py::isinstance<py::dict>(item))
+        throw py::type_error(at + " is not a dict. Hint: give openings=[{\"name\": \"inlet\", \"type\": \"inlet\", "
+                                  "\"point\": [x, y, z], \"normal\": [nx, ny, nz]}, ...]");
+    scalemesh::MeshOpening o;
+    for (const auto& [key_handle, value] : item.cast<py::dict>()) {
+        const std::string key = py::str(key_handle);
+        const std::string where = at + "['" + key + "']";
+        if (value.is_none()) continue; // as if not given
+        if (key == "name") o.name = opening_value<std::string>(where, value, "a string");
+        else if (key == "type") o.type = opening_value<std::string>(where, value, "a string (\"inlet\" or \"outlet\")");
+        else if (key == "point") o.point = opening_vector(where, value);
+        else if (key == "normal") o.normal = opening_vector(where, value);
+        else if (key == "near") o.near = opening_vector(where, value);
+        else if (key == "radius") o.radius = opening_value<double>(where, value, "a number (mm)");
+        else if (key == "extension") o.extension = opening_value<double>(where, value, "a number (cap diameters)");
+        else if (key == "border") o.border = opening_value<std::string>(where, value, "a string (\"x-\" ... \"z+\")");
+        else if (key == "inset") {
+            if (!(py::isinstance<py::str>(value) && value.cast<std::string>() == "auto"))
+                o.inset = length_option(where.c_str(), value);
+        } else if (key == "label") {
+            if (py::isinstance<py::bool_>(value) || !py::isinstance<py::int_>(value))
+                throw py::type_error(where + " is not an integer (a face label)");
+            const long long label = value.cast<long long>();
+            if (label < 0 || label > std::numeric_limits<std::int32_t>::max())
+                throw py::value_error(where + " = " + std::to_string(label) + " is not a face label. Hint: give an "
+                                      "integer >= 0");
+            o.label = static_cast<std::int32_t>(label);
+        } else {
+            std::string keys;
+            for (const char* name : opening_keys) keys += std::string(keys.empty() ? "" : ", ") + name;
+            throw py::value_error(at + " has the unknown key '" + key + "'; the keys are: " + keys);
+        }
+    }
+    return o;
+}
 
 // MeshOptions from keyword arguments named as its members; the library
 // checks the values (ValueError naming the key).
@@ -85,7 +156,16 @@ MeshOptions mesh_options(const py::kwargs& kwargs)
         else if (key == "layer_tolerance") o.layer_tolerance = value.cast<double>();
         else if (key == "threads") o.threads = value.cast<int>();
         else if (key == "max_memory") o.max_memory = value.cast<std::int64_t>();
-        else if (key == "progress") {
+        else if (key == "openings") {
+            if (!value.is_none()) {
+                if (py::isinstance<py::dict>(value) || py::isinstance<py::str>(value) ||
+                    !py::isinstance<py::sequence>(value))
+                    throw py::type_error("openings is not a list of dicts. Hint: give openings=[{\"name\": "
+                                         "\"inlet\", \"type\": \"inlet\", ...}, ...]");
+                const py::sequence items = value.cast<py::sequence>();
+                for (size_t i = 0; i < items.size(); ++i) o.openings.push_back(opening_option(i, items[i]));
+            }
+        } else if (key == "progress") {
             if (!value.is_none()) {
                 auto callback = value.cast<std::function<void(const std::string&, double, const std::string&)>>();
                 // Called on the calling thread, whose GIL is released during the run.
@@ -115,6 +195,21 @@ template <class T, class U = T> py::array_t<T> array_1d(const std::vector<U>& va
     py::array_t<T> out(static_cast<py::ssize_t>(values.size()));
     std::copy(values.begin(), values.end(), out.mutable_data());
     return out;
+}
+
+// What mesh_surface and mesh_gmsh_model return: the arrays as a read-only
+// mapping, and the run behind them for the writers.
+struct PyMeshResult {
+    py::dict items;                     // the arrays and values, by name
+    MeshResult run;                     // its arrays cleared (they are in `items`): MeshResult::run only
+    std::optional<std::string> report;  // report_json, made on first use
+};
+
+// A path argument: str, bytes or os.PathLike.
+std::filesystem::path path_argument(const py::handle& value)
+{
+    const py::object text = py::module_::import("os").attr("fsdecode")(value);
+    return std::filesystem::path(text.cast<std::string>());
 }
 
 py::dict result_dict(const MeshResult& m)
@@ -159,7 +254,15 @@ std::vector<std::int64_t> flat_integers(const py::handle& values, const char* wh
     return std::vector<std::int64_t>(array.data(), array.data() + array.size());
 }
 
-py::dict mesh_surface(const py::handle& points, const py::handle& triangles, const py::handle& labels,
+PyMeshResult wrap(py::dict items, const MeshResult& mesh)
+{
+    PyMeshResult out;
+    out.items = std::move(items);
+    out.run.run = mesh.run;
+    return out;
+}
+
+PyMeshResult mesh_surface(const py::handle& points, const py::handle& triangles, const py::handle& labels,
                       const py::handle& node_tags, const py::handle& label_names, const py::kwargs& kwargs)
 {
     const MeshOptions options = mesh_options(kwargs);
@@ -209,10 +312,10 @@ py::dict mesh_surface(const py::handle& points, const py::handle& triangles, con
         py::gil_scoped_release released;
         result = scalemesh::mesh_surface(surface, options);
     }
-    return result_dict(result);
+    return wrap(result_dict(result), result);
 }
 
-py::dict mesh_gmsh_model(const py::handle& physical_group, const std::string& volume_name, bool views,
+PyMeshResult mesh_gmsh_model(const py::handle& physical_group, const std::string& volume_name, bool views,
                          const py::kwargs& kwargs)
 {
     const MeshOptions options = mesh_options(kwargs);
@@ -234,24 +337,99 @@ py::dict mesh_gmsh_model(const py::handle& physical_group, const std::string& vo
     out["first_tet_tag"] = result.first_tet_tag;
     out["views"] = result.views;
     out["removed_volumes"] = result.removed_volumes;
+    return wrap(out, result.mesh);
+}
+
+py::dict openfoam_case_dict(const scalemesh::OpenFoamCase& c)
+{
+    py::dict out;
+    out["cells"] = c.cells;
+    out["faces"] = c.faces;
+    out["internal_faces"] = c.internal_faces;
+    out["layer_prisms"] = c.layer_prisms;
+    out["patch_names"] = c.patch_names;
+    out["patch_faces"] = c.patch_faces;
+    out["flow_fields"] = c.flow_fields;
+    out["warnings"] = c.warnings;
     return out;
+}
+
+const std::string& report_text(PyMeshResult& r)
+{
+    if (!r.report) {
+        std::string text;
+        {
+            py::gil_scoped_release released;
+            text = scalemesh::report_json(r.run);
+        }
+        r.report = std::move(text);
+    }
+    return *r.report;
+}
+
+py::list list_of(const py::object& a, const py::object& b)
+{
+    py::list out;
+    out.append(a);
+    out.append(b);
+    return out;
+}
+
+// meshio.Mesh of the result: the tets and the boundary triangles as two
+// cell blocks, the point fields as point data, per cell the patch (-1 on
+// tets) and the aspect ratio (NaN on triangles), and the patch names as
+// field data in Gmsh's convention (name: [tag, dimension]).
+py::object to_meshio(const PyMeshResult& r)
+{
+    py::module_ meshio;
+    try {
+        meshio = py::module_::import("meshio");
+    } catch (py::error_already_set& e) {
+        if (!e.matches(PyExc_ImportError)) throw;
+        throw py::import_error("to_meshio needs the meshio package. Hint: install it (Debian: apt-get install "
+                               "python3-meshio; or pip install meshio)");
+    }
+    const py::module_ np = py::module_::import("numpy");
+    const py::dict& m = r.items;
+    const size_t tets = py::len(m["tets"]), triangles = py::len(m["boundary_triangles"]);
+    py::list cells;
+    cells.append(py::make_tuple("tetra", m["tets"]));
+    cells.append(py::make_tuple("triangle", m["boundary_triangles"]));
+    py::dict point_data;
+    for (const char* name : {"D", "D_out", "d", "layers", "point_layer"}) point_data[name] = m[name];
+    py::dict cell_data;
+    cell_data["patch"] = list_of(np.attr("full")(tets, -1, "dtype"_a = "int32"), m["boundary_patch"]);
+    cell_data["aspect_ratio"] =
+        list_of(m["aspect_ratio"], np.attr("full")(triangles, std::numeric_limits<double>::quiet_NaN()));
+    py::dict field_data;
+    const py::list names = m["patch_names"];
+    for (size_t p = 0; p < py::len(names); ++p)
+        field_data[names[p]] = np.attr("array")(py::make_tuple(p, 2));
+    return meshio.attr("Mesh")(m["points"], cells, "point_data"_a = point_data, "cell_data"_a = cell_data,
+                               "field_data"_a = field_data);
 }
 
 } // namespace
 
 PYBIND11_MODULE(scalemesh, m)
 {
-    m.doc() = R"(scalemesh: layered tetrahedral meshes for CFD from closed surfaces.
+    m.doc() = R"(scalemesh: layered tetrahedral meshes for CFD from surfaces.
 
 mesh_surface(points, triangles, labels=None, *, node_tags=None, label_names=None, **options)
 mesh_gmsh_model(physical_group=None, *, volume_name="fluid", views=True, **options)
 
+Both return a MeshResult: a read-only mapping of NumPy arrays (result["points"],
+...), with write_openfoam(case_dir), write_msh(path), report and to_meshio().
+
 Options (keyword arguments, defaults those of the case file scalemesh.toml,
 see defaults()): K, M, G, L_min, L_max, curvature, smoothing_sweeps,
 smoothing_omega, smoothing_reach, remesh_cycles, growth, first_layer,
-layers, layer_tolerance, threads, max_memory, progress. Lengths are numbers in mm or
-strings "2 mm" / "0.5 voxels". progress(stage, seconds, summary) is called
-when a stage starts (seconds < 0) and ends.
+layers, layer_tolerance, threads, max_memory, openings, progress. Lengths are
+numbers in mm or strings "2 mm" / "0.5 voxels". progress(stage, seconds,
+summary) is called when a stage starts (seconds < 0) and ends. openings is a
+list of dicts with the keys of the case file's [[openings]] tables (name,
+type, point, normal, radius, border, inset, near, label, extension), e.g.
+{"name": "inlet", "type": "inlet", "near": [0, 0, -15]} for an open end.
 
 Errors: ValueError (bad input or options: the message says what to change),
 RuntimeError (a stage failed), OSError (a file).)";
@@ -268,18 +446,107 @@ RuntimeError (a stage failed), OSError (a file).)";
         }
     });
 
+    py::class_<PyMeshResult> result(m, "MeshResult", R"(The layered tetrahedral mesh (mm) and the run that made it.
+
+A read-only mapping of NumPy arrays, as the dicts mesh_surface and
+mesh_gmsh_model returned before: result["points"], result.keys(), dict(result).
+The methods write what `scalemesh run` writes, by the same writers, from the
+run behind the arrays (changing an array changes nothing they write).)");
+    result.def("__getitem__",
+               [](const PyMeshResult& r, const py::object& key) -> py::object {
+                   if (!r.items.contains(key)) throw py::key_error(py::repr(key).cast<std::string>());
+                   return r.items[key];
+               })
+        .def("__contains__", [](const PyMeshResult& r, const py::object& key) { return r.items.contains(key); })
+        .def("__iter__", [](const PyMeshResult& r) { return py::iter(r.items); })
+        .def("__len__", [](const PyMeshResult& r) { return py::len(r.items); })
+        .def("keys", [](const PyMeshResult& r) { return r.items.attr("keys")(); })
+        .def("values", [](const PyMeshResult& r) { return r.items.attr("values")(); })
+        .def("items", [](const PyMeshResult& r) { return r.items.attr("items")(); })
+        .def("get", [](const PyMeshResult& r, const py::object& key, const py::object& fallback) {
+                 return r.items.contains(key) ? py::object(r.items[key]) : fallback;
+             }, py::arg("key"), py::arg("default") = py::none())
+        .def("__repr__", [](const PyMeshResult& r) {
+            return "<scalemesh.MeshResult: " + std::to_string(py::len(r.items["points"])) + " points, " +
+                   std::to_string(py::len(r.items["tets"])) + " tets, patches " +
+                   py::repr(r.items["patch_names"]).cast<std::string>() + ">";
+        })
+        .def_property_readonly("report", [](PyMeshResult& r) {
+            return py::module_::import("json").attr("loads")(report_text(r));
+        }, R"(The run's report as a dict: what report.json of `scalemesh run` holds for a run that wrote
+no files (stages, surface facts, sizing, remeshing, volume quality, layers, openings, warnings).)")
+        .def("report_json", [](PyMeshResult& r) { return report_text(r); },
+             "The report as report.json's JSON text.")
+        .def("write_openfoam",
+             [](PyMeshResult& r, const py::object& case_dir, double viscosity, double inlet_speed, bool binary,
+                bool layer_prisms) {
+                 const std::filesystem::path dir = path_argument(case_dir);
+                 scalemesh::OpenFoamCase written;
+                 {
+                     py::gil_scoped_release released;
+                     written = scalemesh::write_openfoam(r.run, dir, {.viscosity = viscosity,
+                                                                      .inlet_speed = inlet_speed,
+                                                                      .binary = binary,
+                                                                      .layer_prisms = layer_prisms});
+                 }
+                 return openfoam_case_dict(written);
+             },
+             py::arg("case_dir"), py::kw_only(), py::arg("viscosity") = scalemesh::OpenFoamOptions{}.viscosity,
+             py::arg("inlet_speed") = scalemesh::OpenFoamOptions{}.inlet_speed,
+             py::arg("binary") = scalemesh::OpenFoamOptions{}.binary,
+             py::arg("layer_prisms") = scalemesh::OpenFoamOptions{}.layer_prisms,
+             R"(Writes the OpenFOAM case into case_dir (made if missing) as `scalemesh run` writes it.
+
+constant/polyMesh (metres; the layer prisms as prism cells where OpenFOAM's
+cell checks pass them; patch "wall" and one per opening), constant/ and
+system/ for simpleFoam, 0/U and 0/p when there are an inlet and an outlet,
+Allrun (checkMesh, then simpleFoam) and report.json. All files appear
+together or none. viscosity (m^2/s) and inlet_speed (m/s) are the case
+file's [flow]; binary and layer_prisms its [output] openfoam_format and
+layer_prisms. Returns a dict: cells, faces, internal_faces, layer_prisms,
+patch_names, patch_faces, flow_fields, warnings.)")
+        .def("write_msh",
+             [](PyMeshResult& r, const py::object& path, double version, bool binary, bool gmsh_session) {
+                 const std::filesystem::path file = path_argument(path);
+                 py::gil_scoped_release released;
+                 scalemesh::write_msh(r.run, file,
+                                      {.version = version, .binary = binary, .host_gmsh_session = gmsh_session});
+             },
+             py::arg("path"), py::kw_only(), py::arg("version") = scalemesh::MshOptions{}.version,
+             py::arg("binary") = scalemesh::MshOptions{}.binary, py::arg("gmsh_session") = false,
+             R"(Writes the volume mesh to path (.msh) as `scalemesh run` writes mesh.msh.
+
+Physical volume "fluid", a physical surface per patch, the views D, D_out, d,
+edge_length_ratio, layers, aspect_ratio and layer, version 4.1 or 2.2.
+gmsh_session=True when gmsh.py is initialised (gmsh.initialize()): the file is
+written through that session and the current model and options are left as
+they were. With the default False the library initialises and finalises Gmsh
+around the write, which would end a gmsh.py session.)")
+        .def("to_meshio", &to_meshio,
+             R"(The mesh as a meshio.Mesh (needs the meshio package): cell blocks "tetra" and "triangle"
+(the boundary), point data D, D_out, d, layers, point_layer, cell data patch
+(-1 on tets) and aspect_ratio (NaN on triangles), field data {patch name:
+[patch id, 2]}.)");
+    py::module_::import("collections.abc").attr("Mapping").attr("register")(result);
+
     m.def("mesh_surface", &mesh_surface, py::arg("points"), py::arg("triangles"), py::arg("labels") = py::none(),
           py::kw_only(), py::arg("node_tags") = py::none(), py::arg("label_names") = py::none(),
-          R"(Meshes a closed, 2-manifold triangulated surface (mm) as `scalemesh run` meshes a surface file.
+          R"(Meshes a triangulated surface (mm) as `scalemesh run` meshes a surface file.
+
+The surface is closed and 2-manifold, or open-ended (a 2-manifold whose open
+loops are vessel ends): each open end is cut flat, capped and becomes an
+opening, named by openings=[{"name": ..., "type": ..., "near": [x, y, z]}]
+or else "inlet" (the largest) and outlet_1, outlet_2, ...
 
 points: (N, 3) or flat 3N coordinates. triangles: (M, 3) or flat 3M 0-based
 indices into points, or, with node_tags, Gmsh node tags (the layout of
 gmsh.model.mesh.getNodes and getElementsByType(2): node_tags are the tags of
 the points in order, triangles hold tags). labels: one integer per triangle,
 or None; each boundary triangle gets the label of the nearest input triangle
-as its patch id; label_names[i] names label i (else "patch_<i>").
+as its patch id; label_names[i] names label i (else "patch_<i>"); a closed
+surface without openings only (they are walls in write_openfoam).
 
-Returns a dict of NumPy arrays: points (N, 3), tets (T, 4) positively
+Returns a MeshResult, a mapping of NumPy arrays: points (N, 3), tets (T, 4) positively
 oriented, boundary_triangles (B, 3) counter-clockwise seen from outside,
 boundary_patch (B,), patch_names (list), surface_points (the boundary nodes
 are points[:surface_points]), D, D_out, d, layers (N,) (NaN at interior
@@ -301,7 +568,7 @@ volume_name, a physical surface per patch, and (views=True) the views D,
 D_out, d, layers (NodeData) and aspect_ratio (ElementData). Never calls
 gmsh.initialize or gmsh.finalize.
 
-Returns the dict of mesh_surface plus volume (entity tag), patch_surfaces and
+Returns the MeshResult of mesh_surface, whose mapping also holds volume (entity tag), patch_surfaces and
 patch_groups (per patch id: entity and physical group tags, -1 for a patch
 without triangles), volume_group, first_node_tag and first_tet_tag (point i
 is node first_node_tag + i, tet t element first_tet_tag + t), views (tags),

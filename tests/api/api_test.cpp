@@ -4,6 +4,7 @@
 
 #include "scalemesh/scalemesh.h"
 
+#include "api/surfaces.h"
 #include "support/temp_dir.h"
 
 #include <gtest/gtest.h>
@@ -22,41 +23,7 @@ namespace {
 
 using scalemesh::MeshResult;
 using scalemesh::SurfaceInput;
-
-// An icosphere of radius `r` (mm) around the origin, `levels` times
-// subdivided with the new points pushed onto the sphere; outward wound.
-SurfaceInput icosphere(double r, int levels)
-{
-    const double t = (1 + std::sqrt(5.0)) / 2;
-    std::vector<std::array<double, 3>> p = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
-                                            {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
-    std::vector<std::array<size_t, 3>> f = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
-                                            {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
-                                            {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
-                                            {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
-    for (int level = 0; level < levels; ++level) {
-        std::map<std::pair<size_t, size_t>, size_t> middle;
-        const auto mid = [&](size_t a, size_t b) {
-            const auto key = std::minmax(a, b);
-            if (auto it = middle.find(key); it != middle.end()) return it->second;
-            p.push_back({(p[a][0] + p[b][0]) / 2, (p[a][1] + p[b][1]) / 2, (p[a][2] + p[b][2]) / 2});
-            return middle[key] = p.size() - 1;
-        };
-        std::vector<std::array<size_t, 3>> next;
-        for (const auto& [a, b, c] : f) {
-            const size_t ab = mid(a, b), bc = mid(b, c), ca = mid(c, a);
-            next.insert(next.end(), {{a, ab, ca}, {b, bc, ab}, {c, ca, bc}, {ab, bc, ca}});
-        }
-        f = std::move(next);
-    }
-    SurfaceInput s;
-    for (auto& q : p) {
-        const double n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
-        s.points.insert(s.points.end(), {r * q[0] / n, r * q[1] / n, r * q[2] / n});
-    }
-    for (const auto& tri : f) s.triangles.insert(s.triangles.end(), tri.begin(), tri.end());
-    return s;
-}
+using scalemesh::test::icosphere;
 
 std::array<double, 3> point(const MeshResult& m, size_t i)
 {

@@ -1,13 +1,15 @@
 // Meshes an octahedron refined onto a sphere through the installed library and
 // checks what the volume stage guarantees: positive tets whose volumes add up
 // to the volume the boundary encloses, that volume equal to the input's, and
-// fields of the right sizes. Exits 0 when all hold, 1 with a message if not.
+// fields of the right sizes; then writes its OpenFOAM case through the
+// library. Exits 0 when all hold, 1 with a message if not.
 
 #include <scalemesh/scalemesh.h>
 
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <map>
 #include <utility>
 
@@ -104,7 +106,20 @@ int main()
     } catch (const scalemesh::InputError&) {
         bad_input_refused = true;
     }
-    if (!bad_input_refused) return fail("an open surface was not refused with InputError");
+    if (!bad_input_refused) return fail("a surface with a hole was not refused with InputError");
+    const std::filesystem::path dir = std::filesystem::temp_directory_path() / "scalemesh-package-consumer-case";
+    std::filesystem::remove_all(dir);
+    try {
+        const scalemesh::OpenFoamCase written = scalemesh::write_openfoam(m, dir);
+        if (written.cells <= 0) return fail("write_openfoam wrote no cells");
+    } catch (const scalemesh::Error& e) {
+        std::fprintf(stderr, "consumer: write_openfoam: %s\n", e.what());
+        return 1;
+    }
+    const bool polymesh = std::filesystem::is_regular_file(dir / "constant" / "polyMesh" / "owner") &&
+                          std::filesystem::is_regular_file(dir / "report.json");
+    std::filesystem::remove_all(dir);
+    if (!polymesh) return fail("write_openfoam left no constant/polyMesh/owner or report.json");
     std::printf("consumer: %zu points, %zu tets, volume %.9g mm^3 (input %.9g mm^3)\n", n, tets, volume, original);
     return 0;
 }
