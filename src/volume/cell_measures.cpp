@@ -23,8 +23,7 @@ using improvement::shared_face_cosine;
 
 } // namespace
 
-std::vector<int32_t> points_missing_floors(const TetMesh& mesh, int32_t surface_points, double dihedral_floor,
-                                           double ortho_bound)
+std::vector<char> tets_missing_floors(const TetMesh& mesh, double dihedral_floor, double ortho_bound)
 {
     const auto& x = mesh.points;
     const auto at = [&](int32_t v) -> const Vec3& { return x[v]; };
@@ -32,7 +31,7 @@ std::vector<int32_t> points_missing_floors(const TetMesh& mesh, int32_t surface_
     const TetFaceAdjacency adjacency = tet_face_adjacency(mesh);
     // A tet is marked for its own angle or for any of its interior faces,
     // each face measured from its lower tet as the passes measure it.
-    const std::vector<char> marked = parallel_marks(0, mesh.tets.size(), [&](size_t i) {
+    return parallel_marks(0, mesh.tets.size(), [&](size_t i) {
         const Tet& t = mesh.tets[i];
         if (tet_min_dihedral_deg(x[t[0]], x[t[1]], x[t[2]], x[t[3]]) < dihedral_floor) return true;
         for (int k = 0; k < 4; ++k) {
@@ -44,6 +43,12 @@ std::vector<int32_t> points_missing_floors(const TetMesh& mesh, int32_t surface_
         }
         return false;
     });
+}
+
+std::vector<int32_t> points_missing_floors(const TetMesh& mesh, int32_t surface_points, double dihedral_floor,
+                                           double ortho_bound)
+{
+    const std::vector<char> marked = tets_missing_floors(mesh, dihedral_floor, ortho_bound);
     std::vector<int32_t> out;
     for (size_t t = 0; t < mesh.tets.size(); ++t)
         if (marked[t])

@@ -45,12 +45,15 @@ bool Flipper::accept(const Old& old, const Fresh& fresh, const Volumes6& fresh6)
         for (const Tet& t : old_tets) old_min = std::min(old_min, ed_.volume6(t));
         return new_min > 3.0 * old_min;
     }
-    if (criterion_ == Criterion::dihedral)
-        return dihedral_better(shape_of(ed_, old_tets, face_links(ed_, old_tets, old)),
-                               shape_of(ed_, fresh, face_links(ed_, fresh, old)), floors_);
-    if (criterion_ == Criterion::orthogonality)
-        return ortho_better(shape_of(ed_, old_tets, face_links(ed_, old_tets, old)),
-                            shape_of(ed_, fresh, face_links(ed_, fresh, old)), floors_);
+    if (criterion_ == Criterion::dihedral || criterion_ == Criterion::orthogonality) {
+        // The face cosines (the faces across the old tets' hull) only where
+        // the aspect ratios and dihedral angles let the flip through.
+        const ShapeOrder order{criterion_ == Criterion::dihedral, floors_};
+        const Shape before = cell_shape(ed_, old_tets), after = cell_shape(ed_, fresh);
+        return order.may_beat(before, after) &&
+               order.better(with_cosine(before, ed_, old_tets, face_links(ed_, old_tets, old)),
+                            with_cosine(after, ed_, fresh, face_links(ed_, fresh, old)));
+    }
     double old_q = 1e300, new_q = 1e300;
     for (const Tet& t : old_tets) old_q = std::min(old_q, ed_.aspect(t));
     for (const Tet& t : fresh) new_q = std::min(new_q, ed_.aspect(t));
@@ -156,15 +159,15 @@ bool Flipper::remove_edge(int32_t a, int32_t b, FlipCounts& counts)
         double smallest6 = 1e300, aspect = 1e300, dihedral = 1e300;
         for (size_t k = 0; k < fresh.size(); ++k) {
             const Tet& t = fresh[k];
+            const TetMeasures m = tet_measures(ed_.point(t[0]), ed_.point(t[1]), ed_.point(t[2]), ed_.point(t[3]));
             smallest6 = std::min(smallest6, v6[k]);
-            aspect = std::min(aspect, ed_.aspect(t));
-            dihedral = std::min(dihedral, tet_min_dihedral_deg(ed_.point(t[0]), ed_.point(t[1]), ed_.point(t[2]),
-                                                               ed_.point(t[3])));
+            aspect = std::min(aspect, m.aspect_ratio);
+            dihedral = std::min(dihedral, m.min_dihedral_deg);
         }
         if (!(smallest6 > floor6) || aspect < std::min(before.aspect, floors_.aspect)) continue;
         if (criterion_ == Criterion::dihedral && !(dihedral > best.dihedral + 1e-6)) continue;
         if (criterion_ == Criterion::orthogonality && dihedral < std::min(before.dihedral, floors_.dihedral)) continue;
-        const Shape now = shape_of(ed_, fresh, face_links(ed_, fresh, around));
+        const Shape now = with_cosine(Shape{1, aspect, dihedral}, ed_, fresh, face_links(ed_, fresh, around));
         if (criterion_ == Criterion::dihedral ? dihedral_better(best, now, floors_) : ortho_better(best, now, floors_))
             best = now, chosen = fresh, found = true;
     }

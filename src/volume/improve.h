@@ -145,8 +145,8 @@ struct OrthoCounts {
 // layers[v].home (one already outside stays put). Then, as a last resort,
 // a face still beyond 70 degrees gets an interior edge of one of its tets
 // split by a new free point under the same rule (no surface edge is split,
-// so the boundary is bit-identical), twice at most. Serial over the whole
-// mesh: the same result on any number of threads.
+// so the boundary is bit-identical), twice at most. In slabs at once, as
+// improve_cells: the same result on any number of threads.
 //
 // `locked_tets`: the first that many tets of mesh.tets (the layer prisms of
 // layers = "prisms") are never replaced, neither flipped nor split, and are
@@ -172,10 +172,53 @@ struct DihedralCounts {
 // miss them). Then a tet still below gets one of its interior edges split
 // by a new free point under the same rule, twice at most. Surface points
 // never move and no surface edge is split: the boundary is bit-identical
-// (mesh.boundary_faces must hold it). Serial: the same result on any number
-// of threads. `locked_tets` as for improve_orthogonality.
+// (mesh.boundary_faces must hold it). In slabs at once, as improve_cells:
+// the same result on any number of threads. `locked_tets` as for
+// improve_orthogonality.
 DihedralCounts raise_dihedral_angles(TetMesh& mesh, int32_t surface_points, double target_deg, int sweeps,
                                      const std::vector<LayerBound>& layers = {}, int32_t locked_tets = 0);
+
+// The schedule of the two passes above as the volume stage runs them
+// (improve_cells): a dihedral pass, then rounds of a non-orthogonality pass
+// and a dihedral pass while either still changes the mesh.
+struct CellPassParams {
+    double dihedral_target_deg = 12; // degrees: the tets below it are raised (a margin over the floor of 10)
+    int dihedral_sweeps = 8;         // sweeps of each dihedral pass
+    double ortho_bound_deg = 65;     // degrees: the faces beyond it are mended (a margin under OpenFOAM's 70)
+    int first_ortho_sweeps = 12;     // sweeps of the first round's non-orthogonality pass
+    int ortho_sweeps = 4;            // of each later round's, on the few faces left
+    int rounds = 3;                  // (non-orthogonality pass, dihedral pass) rounds at most
+    bool dihedral_first = true;      // a dihedral pass before the rounds
+    // The mesh is cut into one slab per tets_per_slab tets, up to
+    // max_slabs, improved at once: a count of the mesh alone. More slabs
+    // put more of the mesh near a cut (the cells up to L_max across), where
+    // the first round leaves the targets to the second.
+    int64_t tets_per_slab = 16384;
+    int max_slabs = 4;
+};
+
+struct CellCounts {
+    DihedralCounts dihedral; // tets_before: below the target at the start
+    OrthoCounts ortho;       // faces_before: beyond the bound at the start
+};
+
+// The cell passes as `params` schedules them, the floors and rules of
+// improve_orthogonality and raise_dihedral_angles kept by every change.
+// Each pass looks at every tet once; after that, at the cells changed
+// since its last look only (the targets it found then, the tets made since
+// and the tets at the points moved since, by either pass). In parallel:
+// the mesh is cut into slabs of equal point count, improved at once, then
+// into slabs cut at their middles, improved at once from the cells the
+// first cut held still (a point moves, and a tet changes, in one slab
+// only, the tets across a slab's faces seen read-only), and last the whole
+// mesh from the cells still beyond the solver's floors (10 degrees, 70),
+// which both cuts held still; so the result depends on the mesh alone:
+// the same on any number of threads. Points the
+// passes add are appended to mesh.points; `locked_tets` stay the first
+// tets. The counts before are those of the first cut's slabs (the tets
+// across its cuts left out).
+CellCounts improve_cells(TetMesh& mesh, int32_t surface_points, const CellPassParams& params,
+                         const std::vector<LayerBound>& layers = {}, int32_t locked_tets = 0);
 
 // The interior points (ids from surface_points on) of the cells a
 // finite-volume solver would still object to: the tets whose smallest
@@ -187,6 +230,10 @@ DihedralCounts raise_dihedral_angles(TetMesh& mesh, int32_t surface_points, doub
 // in parallel.
 std::vector<int32_t> points_missing_floors(const TetMesh& mesh, int32_t surface_points, double dihedral_floor,
                                            double ortho_bound);
+
+// The tets points_missing_floors looks at: per tet, whether it is below
+// `dihedral_floor` degrees or has an interior face beyond `ortho_bound`.
+std::vector<char> tets_missing_floors(const TetMesh& mesh, double dihedral_floor, double ortho_bound);
 
 // The largest face non-orthogonality over the interior faces of `mesh`
 // (`adjacency` its tet_face_adjacency), in degrees, measured as the passes

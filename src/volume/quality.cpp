@@ -61,6 +61,12 @@ double tet_min_dihedral_deg(const Vec3& a, const Vec3& b, const Vec3& c, const V
     return tet_shape(a, b, c, d, true).min_dihedral_deg;
 }
 
+TetMeasures tet_measures(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d)
+{
+    const Shape shape = tet_shape(a, b, c, d, true);
+    return {shape.aspect_ratio, shape.min_dihedral_deg};
+}
+
 QualityReport quality_report(const TetMesh& mesh)
 {
     QualityReport r;

@@ -18,6 +18,13 @@ double tet_aspect_ratio(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3&
 // 0 for a degenerate tet.
 double tet_min_dihedral_deg(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
 
+// Both measures above from one set of face normals, the same numbers as
+// each alone: what the cell passes ask of every tet they try.
+struct TetMeasures {
+    double aspect_ratio, min_dihedral_deg;
+};
+TetMeasures tet_measures(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
+
 // The aspect ratio below which no tet should be left (what below_0_02 counts).
 constexpr double kQualityFloor = 0.02;
 

@@ -26,4 +26,10 @@ struct SlabCut {
 // at 0.
 SlabCut equal_count_slabs(const std::vector<Vec3>& points, int count);
 
+// count + 1 slabs cut at the middles of equal_count_slabs(points, count)'s
+// slabs, along the same axis: the inner cuts are the coordinates of ranks
+// n (2 s - 1) / (2 count) (s = 1 .. count), so each cut of the one lies
+// inside a slab of the other (the two rounds of the cell passes).
+SlabCut middle_slabs(const std::vector<Vec3>& points, int count);
+
 } // namespace scalemesh

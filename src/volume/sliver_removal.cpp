@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <mutex>
 #include <numeric>
+#include <optional>
 #include <vector>
 
 namespace scalemesh {
@@ -23,6 +24,7 @@ using improvement::Criterion;
 using improvement::Flipper;
 using improvement::improve_in_slabs;
 using improvement::Part;
+using improvement::place_split_point;
 using improvement::smooth_point;
 using improvement::split_at;
 using improvement::TetEditor;
@@ -157,22 +159,14 @@ bool split_surface_sliver_edge(TetEditor& ed, int32_t q, int32_t s, double at_le
     const int32_t m = ed.add_point(mid);
     std::vector<Tet> fresh = split_at(ed, around, q, s, m);
     double best = std::max(old_q, at_least);
-    Vec3 best_position;
-    bool found = false;
+    std::optional<Vec3> place;
     for (double w : {0.0, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6}) {
         ed.point(m) = (1 - w) * mid + w * centroid;
         double worst = 1e300;
         for (const Tet& t : fresh) worst = std::min(worst, ed.aspect(t));
-        if (worst > best + 1e-9) best = worst, best_position = ed.point(m), found = true;
+        if (worst > best + 1e-9) best = worst, place = ed.point(m);
     }
-    if (!found) {
-        ed.drop_last_point();
-        return false;
-    }
-    ed.point(m) = best_position;
-    ed.replace(around, fresh);
-    smooth_point(ed, m);
-    return true;
+    return place_split_point(ed, m, place, around, fresh);
 }
 
 } // namespace

@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <array>
 #include <map>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -19,7 +20,7 @@ namespace scalemesh {
 namespace {
 
 using improvement::oriented;
-using improvement::smooth_point;
+using improvement::place_split_point;
 using improvement::split_at;
 using improvement::TetEditor;
 using improvement::volume_floor6;
@@ -107,14 +108,7 @@ bool split_quad_diagonal(TetEditor& ed, int32_t a, int32_t b, int32_t c, int32_t
         for (const Tet& t : fresh) worst = std::min(worst, ed.aspect(t));
         if (worst > best) best = worst, best_position = ed.point(m);
     }
-    if (!(best > 1e-6)) {
-        ed.drop_last_point();
-        return false;
-    }
-    ed.point(m) = best_position;
-    ed.replace(around, fresh);
-    smooth_point(ed, m);
-    return true;
+    return place_split_point(ed, m, best > 1e-6 ? std::optional<Vec3>(best_position) : std::nullopt, around, fresh);
 }
 
 } // namespace

@@ -1,5 +1,6 @@
 // The edits of tet_editor.h that are not templates: a point's move for
-// its star's aspect ratio, within its layer, and an edge split's tets.
+// its star's aspect ratio, within its layer, and an edge split's tets and
+// new point.
 
 #include "volume/tet_editor.h"
 
@@ -95,6 +96,19 @@ std::vector<Tet> split_at(TetEditor& ed, const std::vector<int32_t>& around, int
         out.push_back(y);
     }
     return out;
+}
+
+bool place_split_point(TetEditor& ed, int32_t m, const std::optional<Vec3>& place, const std::vector<int32_t>& around,
+                       const std::vector<Tet>& fresh)
+{
+    if (!place) {
+        ed.drop_last_point();
+        return false;
+    }
+    ed.point(m) = *place;
+    ed.replace(around, fresh);
+    smooth_point(ed, m);
+    return true;
 }
 
 } // namespace scalemesh::improvement

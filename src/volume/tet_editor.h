@@ -16,6 +16,7 @@
 #include <cmath>
 #include <cstdint>
 #include <initializer_list>
+#include <optional>
 #include <stdexcept>
 #include <vector>
 
@@ -322,27 +323,56 @@ struct Shape {
     double cosine = 1, aspect = 1e300, dihedral = 1e300;
 };
 
+// The worst aspect ratio and dihedral angle of `tets`, the cosine not
+// measured (1): the cheap part of shape_of, which the criteria below ask
+// first (the face cosines, across faces, cost the most).
 template <class Tets>
-Shape shape_of(const TetEditor& ed, const Tets& tets, const std::vector<FaceLink>& links)
+Shape cell_shape(const TetEditor& ed, const Tets& tets)
 {
     Shape s;
     for (size_t i = 0; i < tets.size(); ++i) {
         const Tet& t = tets[i];
-        s.aspect = std::min(s.aspect, ed.aspect(t));
-        s.dihedral = std::min(s.dihedral, tet_min_dihedral_deg(ed.point(t[0]), ed.point(t[1]), ed.point(t[2]),
-                                                               ed.point(t[3])));
+        const TetMeasures m = tet_measures(ed.point(t[0]), ed.point(t[1]), ed.point(t[2]), ed.point(t[3]));
+        s.aspect = std::min(s.aspect, m.aspect_ratio);
+        s.dihedral = std::min(s.dihedral, m.min_dihedral_deg);
     }
-    if (!(s.aspect > 0)) return s;
-    s.cosine = worst_cosine(ed, tets, links);
     return s;
+}
+
+// `s`, the cell_shape of `tets`, with the worst cosine of their faces
+// `links` (not measured where a tet is flat).
+template <class Tets>
+Shape with_cosine(Shape s, const TetEditor& ed, const Tets& tets, const std::vector<FaceLink>& links)
+{
+    if (s.aspect > 0) s.cosine = worst_cosine(ed, tets, links);
+    return s;
+}
+
+template <class Tets>
+Shape shape_of(const TetEditor& ed, const Tets& tets, const std::vector<FaceLink>& links)
+{
+    return with_cosine(cell_shape(ed, tets), ed, tets, links);
+}
+
+// What of ortho_better the aspect ratios and dihedral angles decide: when
+// false, `after` is not better whatever the cosines.
+inline bool ortho_may_beat(const Shape& before, const Shape& after, const OrthoFloors& floors)
+{
+    return after.aspect > 0 && after.aspect >= std::min(before.aspect, floors.aspect) &&
+           after.dihedral >= std::min(before.dihedral, floors.dihedral);
 }
 
 // Whether `after` is better for orthogonality than `before` and keeps the floors.
 inline bool ortho_better(const Shape& before, const Shape& after, const OrthoFloors& floors)
 {
-    return after.aspect > 0 && after.cosine > before.cosine + 1e-9 &&
-           after.aspect >= std::min(before.aspect, floors.aspect) &&
-           after.dihedral >= std::min(before.dihedral, floors.dihedral);
+    return ortho_may_beat(before, after, floors) && after.cosine > before.cosine + 1e-9;
+}
+
+// What of dihedral_better the aspect ratios and dihedral angles decide.
+inline bool dihedral_may_beat(const Shape& before, const Shape& after, const OrthoFloors& floors)
+{
+    return after.aspect > 0 && after.dihedral > before.dihedral + 1e-6 &&
+           after.aspect >= std::min(before.aspect, floors.aspect);
 }
 
 // Whether `after` has a larger smallest dihedral angle than `before` and
@@ -351,10 +381,24 @@ inline bool ortho_better(const Shape& before, const Shape& after, const OrthoFlo
 inline bool dihedral_better(const Shape& before, const Shape& after, const OrthoFloors& floors)
 {
     const double bound = std::cos(floors.ortho * M_PI / 180);
-    return after.aspect > 0 && after.dihedral > before.dihedral + 1e-6 &&
-           after.aspect >= std::min(before.aspect, floors.aspect) &&
-           after.cosine >= std::min(before.cosine, bound) - 1e-12;
+    return dihedral_may_beat(before, after, floors) && after.cosine >= std::min(before.cosine, bound) - 1e-12;
 }
+
+// The order of one cell pass on shapes: `better` (dihedral_better or
+// ortho_better) and its cheap part `may_beat`, to ask first.
+struct ShapeOrder {
+    bool dihedral = false; // dihedral_better, else ortho_better
+    OrthoFloors floors;
+
+    bool may_beat(const Shape& before, const Shape& after) const
+    {
+        return dihedral ? dihedral_may_beat(before, after, floors) : ortho_may_beat(before, after, floors);
+    }
+    bool better(const Shape& before, const Shape& after) const
+    {
+        return dihedral ? dihedral_better(before, after, floors) : ortho_better(before, after, floors);
+    }
+};
 
 // Marks [begin, end) by is_marked(t), in parallel: the marks are read by
 // sequential loops, which then decide as if they had asked in turn.
@@ -412,5 +456,12 @@ bool smooth_point(TetEditor& ed, int32_t v, const LayerBound& layer = {});
 // The tets of `around`, which all hold the edge (p, q), split at the point m
 // on that edge: each gives one copy with p replaced by m and one with q.
 std::vector<Tet> split_at(TetEditor& ed, const std::vector<int32_t>& around, int32_t p, int32_t q, int32_t m);
+
+// The end of a split by the new point m (the point add_point made last, in
+// no tet yet): without a `place` for it, m is dropped and nothing changes;
+// else m goes there, `fresh` replaces the tets `around`, and m moves for
+// its star's aspect ratio (smooth_point). True when m was placed.
+bool place_split_point(TetEditor& ed, int32_t m, const std::optional<Vec3>& place, const std::vector<int32_t>& around,
+                       const std::vector<Tet>& fresh);
 
 } // namespace scalemesh::improvement

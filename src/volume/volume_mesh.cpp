@@ -221,6 +221,15 @@ void remove_core_slivers(TetMesh& core, int32_t frozen, const VolumeParams& para
     result.sliver_splits = split_surface_slivers(core, frozen, params.sliver_aspect_ratio, kQualityFloor);
 }
 
+// Adds what a run of the cell passes changed to the result's counts.
+void count_cell_passes(const CellCounts& made, VolumeResult& result)
+{
+    result.ortho_flips += made.ortho.flips, result.ortho_moves += made.ortho.moves;
+    result.ortho_splits += made.ortho.splits;
+    result.dihedral_flips += made.dihedral.flips, result.dihedral_moves += made.dihedral.moves;
+    result.dihedral_splits += made.dihedral.splits;
+}
+
 // How far the top of a shortened column may slide along its column in the
 // cell passes, as a fraction of its top layer's thickness.
 constexpr double kTopSlide = 0.3;
@@ -263,23 +272,11 @@ void improve_joined(TetMesh& mesh, const SurfaceMesh& surface, const LayerStack&
         bound.on_normal = true;
     }
     const int32_t locked = static_cast<int32_t>(stack.tets.size());
-    constexpr double kDihedralTarget = 12.0;
     const auto cell_passes = Clock::now();
-    const DihedralCounts dihedral = raise_dihedral_angles(mesh, n, kDihedralTarget, 8, bounds, locked);
-    result.dihedral_tets_before = dihedral.tets_before;
-    result.dihedral_flips = dihedral.flips, result.dihedral_moves = dihedral.moves;
-    result.dihedral_splits = dihedral.splits;
-    for (int round = 0; round < 3; ++round) {
-        bounds.resize(mesh.points.size()); // points the passes added are free
-        const OrthoCounts ortho = improve_orthogonality(mesh, n, 65.0, round == 0 ? 12 : 4, bounds, locked);
-        if (round == 0) result.ortho_faces_before = ortho.faces_before;
-        result.ortho_flips += ortho.flips, result.ortho_moves += ortho.moves, result.ortho_splits += ortho.splits;
-        bounds.resize(mesh.points.size());
-        const DihedralCounts again = raise_dihedral_angles(mesh, n, kDihedralTarget, 8, bounds, locked);
-        result.dihedral_flips += again.flips, result.dihedral_moves += again.moves;
-        result.dihedral_splits += again.splits;
-        if (ortho.flips + ortho.moves + again.flips + again.moves + again.splits == 0) break;
-    }
+    const CellCounts made = improve_cells(mesh, n, CellPassParams{}, bounds, locked);
+    count_cell_passes(made, result);
+    result.dihedral_tets_before = made.dihedral.tets_before;
+    result.ortho_faces_before = made.ortho.faces_before;
     result.seconds_cell_passes = seconds_since(cell_passes);
 }
 
@@ -730,32 +727,18 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
         // node, so it stays in a ball inside both tolerances.
         result.prism_groups.after_slivers = prism_groups();
         const std::vector<LayerBound> held = hold_stand_ins(mesh, n, raw, points, ins.source, layers, params.layer_tolerance);
-        // A finite-volume solver also wants no tet flatter than a dihedral
-        // angle of 10 degrees: flips, moves and interior-edge splits for the
-        // tets below kDihedralTarget, before and after the orthogonality pass
-        // (each keeps what the other has reached).
-        constexpr double kDihedralTarget = 12.0; // degrees, a margin over 10
+        // A finite-volume solver wants no tet flatter than a dihedral angle
+        // of 10 degrees and OpenFOAM's solvers face non-orthogonality below
+        // 70: flips, moves and interior-edge splits for the tets below 12
+        // degrees and the faces beyond 65, keeping the quality floors and
+        // the layers' balls, the two passes alternating while either still
+        // changes the mesh (each keeps what the other has reached).
+        const CellPassParams schedule;
         const auto cell_passes = Clock::now();
-        const DihedralCounts dihedral = raise_dihedral_angles(mesh, n, kDihedralTarget, 8, held);
-        result.dihedral_tets_before = dihedral.tets_before;
-        // OpenFOAM's solvers want face non-orthogonality below 70 degrees:
-        // flips and moves for the faces beyond 65, keeping the quality floors
-        // and the layers' balls.
-        // The two passes alternate while either still changes the mesh: a
-        // flip or move made for one opens moves for the other; in the later
-        // rounds, on the few faces left, the non-orthogonality pass takes 4
-        // sweeps instead of 12.
-        result.dihedral_flips = dihedral.flips, result.dihedral_moves = dihedral.moves;
-        result.dihedral_splits = dihedral.splits;
-        for (int round = 0; round < 3; ++round) {
-            const OrthoCounts ortho = improve_orthogonality(mesh, n, 65.0, round == 0 ? 12 : 4, held);
-            if (round == 0) result.ortho_faces_before = ortho.faces_before;
-            result.ortho_flips += ortho.flips, result.ortho_moves += ortho.moves, result.ortho_splits += ortho.splits;
-            const DihedralCounts again = raise_dihedral_angles(mesh, n, kDihedralTarget, 8, held);
-            result.dihedral_flips += again.flips, result.dihedral_moves += again.moves;
-            result.dihedral_splits += again.splits;
-            if (ortho.flips + ortho.moves + again.flips + again.moves + again.splits == 0) break;
-        }
+        const CellCounts made = improve_cells(mesh, n, schedule, held);
+        count_cell_passes(made, result);
+        result.dihedral_tets_before = made.dihedral.tets_before;
+        result.ortho_faces_before = made.ortho.faces_before;
         // Last resort where cells still miss the solver's floors (a tet
         // below 10 degrees, a face beyond 70): their layer points are held
         // on their layers no longer, and both passes run once more. A cell
@@ -767,11 +750,11 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
             if (size_t(v) < released.size() && released[v].slack > 0)
                 released[v] = {}, ++result.released_layer_points;
         if (result.released_layer_points > 0) {
-            const OrthoCounts ortho = improve_orthogonality(mesh, n, 65.0, 4, released);
-            result.ortho_flips += ortho.flips, result.ortho_moves += ortho.moves, result.ortho_splits += ortho.splits;
-            const DihedralCounts again = raise_dihedral_angles(mesh, n, kDihedralTarget, 8, released);
-            result.dihedral_flips += again.flips, result.dihedral_moves += again.moves;
-            result.dihedral_splits += again.splits;
+            CellPassParams once = schedule;
+            once.dihedral_first = false;
+            once.rounds = 1;
+            once.first_ortho_sweeps = schedule.ortho_sweeps;
+            count_cell_passes(improve_cells(mesh, n, once, released), result);
         }
         result.seconds_cell_passes = seconds_since(cell_passes);
         result.prism_groups.after_cell_passes = prism_groups();

@@ -113,11 +113,11 @@ struct VolumeResult {
                                  // out of the mesh, their other two faces the surface there (improve.h)
     int64_t flips_32 = 0, flips_23 = 0, flips_44 = 0;
     int64_t sliver_flips = 0, sliver_moves = 0;
-    int64_t ortho_faces_before = 0; // interior faces beyond 65 degrees of non-orthogonality before its pass
-    int64_t ortho_flips = 0, ortho_moves = 0; // the non-orthogonality pass's changes (improve_orthogonality)
+    int64_t ortho_faces_before = 0; // interior faces beyond 65 degrees of non-orthogonality before the cell passes
+    int64_t ortho_flips = 0, ortho_moves = 0; // the non-orthogonality pass's changes (improve_cells)
     int64_t ortho_splits = 0;                 // its edge splits for a face beyond 70 degrees
-    int64_t dihedral_tets_before = 0; // tets below 12 degrees of dihedral angle before raise_dihedral_angles
-    int64_t dihedral_flips = 0, dihedral_moves = 0, dihedral_splits = 0; // its changes, both runs
+    int64_t dihedral_tets_before = 0; // tets below 12 degrees of dihedral angle before the cell passes
+    int64_t dihedral_flips = 0, dihedral_moves = 0, dihedral_splits = 0; // the dihedral pass's changes, every run
     int64_t released_layer_points = 0; // layer points let off their layers for a last round where cells still
                                        // missed 10 degrees of dihedral angle or 70 of non-orthogonality
     int64_t sliver_splits = 0;   // edges of surface-point slivers split by a new interior point

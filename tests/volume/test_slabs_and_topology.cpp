@@ -49,6 +49,32 @@ TEST(EqualCountSlabs, CutsAlongTheLongestSideIntoEqualCounts)
     EXPECT_EQ(none.of(Vec3{1, 2, 3}), 2);
 }
 
+// The second cut of the cell passes: count + 1 slabs whose inner cuts are
+// the middles (in rank) of the equal-count slabs, so each cut of one lies
+// strictly inside a slab of the other.
+TEST(MiddleSlabs, CutTheEqualCountSlabsAtTheirMiddles)
+{
+    std::mt19937 random(11);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    std::vector<Vec3> points;
+    for (int i = 0; i < 1000; ++i) points.push_back({unit(random), unit(random), 3 * unit(random)});
+    std::vector<double> z;
+    for (const Vec3& p : points) z.push_back(p.z);
+    std::sort(z.begin(), z.end());
+    for (int count : {1, 2, 4, 8}) {
+        const SlabCut equal = equal_count_slabs(points, count), middle = middle_slabs(points, count);
+        EXPECT_EQ(middle.axis, equal.axis);
+        ASSERT_EQ(middle.count(), count + 1);
+        EXPECT_EQ(middle.bounds.front(), z.front());
+        EXPECT_EQ(middle.bounds.back(), z.back());
+        for (int s = 1; s <= count; ++s) {
+            EXPECT_EQ(middle.bounds[s], z[z.size() * (2 * s - 1) / (2 * count)]);
+            EXPECT_GT(middle.bounds[s], equal.bounds[s - 1]);
+            EXPECT_LT(middle.bounds[s], equal.bounds[s]);
+        }
+    }
+}
+
 TetMesh tets_on_seven_points(const std::vector<Tet>& tets)
 {
     TetMesh mesh;

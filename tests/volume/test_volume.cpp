@@ -26,6 +26,7 @@
 #include <array>
 #include <cmath>
 #include <map>
+#include <utility>
 
 namespace scalemesh {
 namespace {
@@ -336,6 +337,58 @@ TEST(VolumeParallel, ImprovementInSlabsKeepsTheMeshValidAndIsTheSameOnOneOrTwoTh
         if (tet_aspect_ratio(mesh.points[t[0]], mesh.points[t[1]], mesh.points[t[2]], mesh.points[t[3]]) < kQualityFloor) {
             EXPECT_LT(*std::max_element(t.begin(), t.end()), n) << "a tet below the floor with an interior point";
         }
+    }
+}
+
+// The cell passes in slabs (improve_cells), the slabs forced small: four
+// slabs of the torus improved at once, then five cut at their middles,
+// then what is left on the whole mesh. One thread and two give the same
+// mesh, point for point and tet for tet, the mesh stays valid with its
+// surface points in place, and the solver's floors (no tet below 10
+// degrees, no face beyond 70) hold as they do in one slab.
+TEST(VolumeParallel, CellPassesInSlabsAreTheSameOnOneOrTwoThreadsAndKeepTheFloors)
+{
+    const Prepared p = prepare("torus", 1.0, 0.5, 8);
+    VolumeParams params = volume_params(p);
+    params.improve = false;
+    const VolumeResult raw = build_volume_mesh(p.surface, p.size, params);
+    const int32_t n = static_cast<int32_t>(p.surface.points.size());
+    TetMesh start = raw.mesh;
+    flip_volume_criterion(start, params.flip_sweeps);
+    remove_slivers(start, n, params.sliver_aspect_ratio, params.sliver_sweeps);
+    ASSERT_TRUE(tets_missing_floors(start, 10, 70) != std::vector<char>(start.tets.size(), 0)) << "nothing to mend";
+
+    CellPassParams slabs;
+    slabs.tets_per_slab = static_cast<int64_t>(start.tets.size() / 4);
+    TetMesh improved[2];
+    for (int threads : {1, 2}) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        TetMesh& mesh = improved[threads - 1];
+        mesh = start;
+        const CellCounts made = improve_cells(mesh, n, slabs);
+        EXPECT_GT(made.dihedral.flips + made.dihedral.moves, 0);
+        EXPECT_GT(made.ortho.flips + made.ortho.moves, 0);
+    }
+    EXPECT_EQ(improved[0].points, improved[1].points);
+    EXPECT_EQ(improved[0].tets, improved[1].tets);
+
+    TetMesh whole = start;
+    CellPassParams one_slab;
+    one_slab.max_slabs = 1;
+    improve_cells(whole, n, one_slab);
+    EXPECT_NE(whole.tets, improved[0].tets) << "the slabs changed nothing: not cut";
+
+    const TetMesh& mesh = improved[1];
+    const TetMeshFacts facts = tet_mesh_facts(mesh);
+    EXPECT_EQ(facts.nonpositive_tets, 0);
+    EXPECT_EQ(facts.overshared_faces, 0);
+    EXPECT_TRUE(facts.boundary_matches);
+    EXPECT_NEAR(facts.volume, tet_mesh_facts(start).volume, 1e-9 * facts.volume);
+    for (int32_t v = 0; v < n; ++v) ASSERT_EQ(mesh.points[v], start.points[v]) << "surface point " << v;
+    for (const TetMesh* m : {&std::as_const(whole), &mesh}) {
+        const QualityReport q = quality_report(*m);
+        EXPECT_GE(q.min_dihedral_deg, 10.0);
+        EXPECT_LT(max_non_orthogonality_deg(*m, tet_face_adjacency(*m)), 70.0);
     }
 }
 
