@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <array>
+#include <map>
 #include <set>
 #include <string>
 #include <vector>
@@ -171,6 +172,74 @@ TEST(LayerStack, APoorPrismOnARimEdgeLeavesAHoleClosedByTheCapsStrip)
     } catch (const StageError& e) {
         EXPECT_NE(std::string(e.what()).find("strip along its rim edge 0-1"), std::string::npos) << e.what();
     }
+}
+
+
+// The directed edges of `faces` that no face runs the other way: the
+// boundary of the surface they make.
+std::set<std::pair<int32_t, int32_t>> unmatched_edges(const std::vector<Triangle>& faces)
+{
+    std::set<std::pair<int32_t, int32_t>> edges;
+    for (const Triangle& t : faces)
+        for (int k = 0; k < 3; ++k) edges.insert({t[k], t[(k + 1) % 3]});
+    std::set<std::pair<int32_t, int32_t>> out;
+    for (const auto& e : edges)
+        if (!edges.count({e.second, e.first})) out.insert(e);
+    return out;
+}
+
+TEST(LayerStack, ABareRimTriangleBesideAPrismLeavesTheCoreBoundaryOneSurface)
+{
+    // Two wall triangles, (a, b, c) on the rim edge a-b and (c, b, e)
+    // beside it, one layer. The cap's node a1 (a's column) lies almost on
+    // the wall, leaning along the rim, so (a, b, c)'s prism stays poor
+    // however its free column is shortened: it is left bare. (c, b, e)
+    // keeps its prism. The core's boundary is then the bare triangle, the
+    // cap's strip along a-b, the prism's side face along b-c and its top:
+    // one surface with one boundary loop, every directed edge inside it
+    // matched by its reverse (no gap at b, where all four meet).
+    const double h = 0.5;
+    SurfaceMesh surface;
+    surface.points = {{0, 0, 0}, {1, 0, 0}, {0.5, -1, 0}, {0.3, 0, 0.02}, {1, 0, h}, {1.5, -1, 0}}; // a b c a1 b1 e
+    surface.triangles = {{0, 1, 2}, {2, 1, 5}, {0, 3, 1}, {3, 4, 1}};
+    surface.triangle_patch = {0, 0, 1, 1};
+    FeatureSize sizing;
+    sizing.d.assign(6, 1.0);
+    sizing.D.assign(6, 10.0);
+    LayerColumns columns;
+    columns.layers = 1;
+    columns.inward.assign(6, Vec3{0, 0, 1});
+    columns.dist.assign(6, h);
+    columns.spacing.assign(6, h);
+    columns.repaired.assign(6, 0);
+    LayerStackParams params;
+    params.rim_columns = {3, 4, -1, -1, -1, -1};
+    const LayerStack stack = build_layer_stack(surface, sizing, columns, params);
+    EXPECT_EQ(stack.holes, 1);
+    EXPECT_EQ(stack.prisms, 1);
+    EXPECT_EQ(stack.tets.size(), 3u);
+    // The bare triangle and the strip are in the boundary as they are.
+    for (const Triangle& t : {Triangle{0, 1, 2}, Triangle{0, 3, 1}, Triangle{3, 4, 1}})
+        EXPECT_NE(std::find(stack.top.begin(), stack.top.end(), t), stack.top.end())
+            << t[0] << " " << t[1] << " " << t[2];
+    // One boundary loop: every point of it is left once and entered once.
+    const auto loop = unmatched_edges(stack.top);
+    std::map<int32_t, int> out_degree, in_degree;
+    for (const auto& e : loop) ++out_degree[e.first], ++in_degree[e.second];
+    for (const auto& [v, n] : out_degree) EXPECT_EQ(n, 1) << "point " << v << " leaves the boundary " << n << " times";
+    EXPECT_EQ(in_degree, out_degree);
+    // The edge b-c between the hole and the prism is inside the surface.
+    EXPECT_FALSE(loop.count({1, 2}));
+    EXPECT_FALSE(loop.count({2, 1}));
+    // Euler: V - E + F = 1 for a disc.
+    std::set<int32_t> points;
+    std::set<std::pair<int32_t, int32_t>> edges;
+    for (const Triangle& t : stack.top)
+        for (int k = 0; k < 3; ++k) {
+            points.insert(t[k]);
+            edges.insert(std::minmax(t[k], t[(k + 1) % 3]));
+        }
+    EXPECT_EQ(int64_t(points.size()) - int64_t(edges.size()) + int64_t(stack.top.size()), 1);
 }
 
 } // namespace
