@@ -1034,6 +1034,75 @@ ImageValues image_values(const std::filesystem::path& path, int64_t max_bytes)
                      "convert the image to an integer or floating-point type");
 }
 
+namespace {
+
+// The voxels copied x fastest (the files' layout), in their own type.
+template <typename T> void copy_voxels(const VoxelArray& voxels, RawImage& image)
+{
+    const auto* source = static_cast<const T*>(voxels.data);
+    image.data.reset(new char[static_cast<size_t>(image.voxels()) * sizeof(T)]);
+    T* target = reinterpret_cast<T*>(image.data.get());
+    const std::array<int64_t, 3>& n = image.size;
+    const std::array<int64_t, 3>& step = voxels.strides;
+    tbb::parallel_for(tbb::blocked_range<int64_t>(0, n[2]), [&](const tbb::blocked_range<int64_t>& r) {
+        for (int64_t k = r.begin(); k != r.end(); ++k)
+            for (int64_t j = 0; j < n[1]; ++j) {
+                const T* row = source + k * step[2] + j * step[1];
+                T* out = target + (k * n[1] + j) * n[0];
+                for (int64_t i = 0; i < n[0]; ++i) out[i] = row[i * step[0]];
+            }
+    });
+}
+
+} // namespace
+
+openvdb::FloatGrid::Ptr image_grid(const VoxelArray& voxels, const ImageImportParams& params, const std::string& name)
+{
+    openvdb::initialize();
+    check_params(params);
+    if (!voxels.data) throw InputError(name + " has no voxels (a null pointer)", "point at voxel (0, 0, 0)");
+    RawImage image;
+    const std::vector<int64_t> size(voxels.size.begin(), voxels.size.end());
+    int64_t count = 1;
+    for (int d = 0; d < 3; ++d) {
+        if (voxels.size[d] < 1)
+            throw InputError(name + " has size " + size_text(size) + "; every axis needs at least one voxel",
+                             "give a 3-D volume of voxels");
+        if (voxels.size[d] > std::numeric_limits<int>::max() || count * voxels.size[d] > kMaxVoxels)
+            throw_too_many_voxels(name, size_text(size));
+        count *= voxels.size[d];
+        if (!std::isfinite(voxels.spacing[d]) || voxels.spacing[d] <= 0)
+            throw InputError(name + " has spacing " + number(voxels.spacing[d]) + " along axis " + std::to_string(d) +
+                                 "; spacings must be positive",
+                             "give the distance between voxel centres along each axis in mm");
+        if (!std::isfinite(voxels.origin[d]))
+            throw InputError(name + " has a non-finite origin", "give the centre of voxel (0, 0, 0) in mm");
+    }
+    image.size = voxels.size;
+    image.spacing = voxels.spacing;
+    image.origin = voxels.origin;
+    for (int d = 0; d < 3; ++d) image.direction[d][d] = 1;
+    using C = itk::IOComponentEnum;
+    const auto copy = [&]<typename T>(T, C component) {
+        require_image_memory(name, static_cast<double>(count), sizeof(T), params.max_bytes);
+        image.component = component;
+        copy_voxels<T>(voxels, image);
+    };
+    switch (voxels.type) {
+    case VoxelType::UInt8: copy(uint8_t{}, C::UCHAR); break;
+    case VoxelType::Int8: copy(int8_t{}, C::CHAR); break;
+    case VoxelType::UInt16: copy(uint16_t{}, C::USHORT); break;
+    case VoxelType::Int16: copy(int16_t{}, C::SHORT); break;
+    case VoxelType::UInt32: copy(uint32_t{}, C::UINT); break;
+    case VoxelType::Int32: copy(int32_t{}, C::INT); break;
+    case VoxelType::UInt64: copy(static_cast<unsigned long long>(0), C::ULONGLONG); break;
+    case VoxelType::Int64: copy(static_cast<long long>(0), C::LONGLONG); break;
+    case VoxelType::Float32: copy(float{}, C::FLOAT); break;
+    case VoxelType::Float64: copy(double{}, C::DOUBLE); break;
+    }
+    return voxels_to_grid(image, params, name);
+}
+
 openvdb::FloatGrid::Ptr read_image(const std::filesystem::path& path, const ImageImportParams& params)
 {
     openvdb::initialize();

@@ -5,8 +5,11 @@
 
 #include <openvdb/openvdb.h>
 
+#include <array>
+#include <cstdint>
 #include <filesystem>
 #include <optional>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -74,6 +77,30 @@ struct ImageImportParams {
 // match its bytes (vti_importer.h), conflicting params, or no voxel inside
 // (listing up to 10 values present, or the value range).
 openvdb::FloatGrid::Ptr read_image(const std::filesystem::path& path, const ImageImportParams& params = {});
+
+// An image in memory: its voxels in one of the types the file readers take,
+// on the grid the files describe, with an identity direction (the index axes
+// are the world axes, as in a MetaImage without TransformMatrix).
+enum class VoxelType { UInt8, Int8, UInt16, Int16, UInt32, Int32, UInt64, Int64, Float32, Float64 };
+
+struct VoxelArray {
+    const void* data = nullptr;           // voxel (0, 0, 0); not owned
+    VoxelType type = VoxelType::UInt8;
+    std::array<int64_t, 3> size{};        // voxels along index axes i, j, k
+    std::array<int64_t, 3> strides{};     // elements from a voxel to its neighbour along i, j, k (may be negative)
+    std::array<double, 3> spacing{};      // mm between voxel centres along i, j, k
+    std::array<double, 3> origin{};       // mm: the centre of voxel (0, 0, 0)
+};
+
+// The grid read_image makes of a file holding these voxels (voxel (i, j, k)
+// at origin + (i spacing[0], j spacing[1], k spacing[2])), with the same
+// semantics of params and the same checks of the values. `name` stands for
+// the file's path in messages. Throws InputError for a null pointer, a size
+// below 1, more than 2^31 voxels or more than params.max_bytes, a
+// non-positive or non-finite spacing, a non-finite origin, and as read_image
+// for the values.
+openvdb::FloatGrid::Ptr image_grid(const VoxelArray& voxels, const ImageImportParams& params,
+                                   const std::string& name = "the image");
 
 // What the voxels of an image hold, for choosing how to read it (scalemesh
 // init): a label map has a few integer values, an intensity image many, a

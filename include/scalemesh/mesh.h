@@ -114,6 +114,16 @@ struct MeshOptions {
     // Called when a stage starts (seconds < 0) and when it ends, with the
     // stage's one-line summary; on the calling thread. Empty: no calls.
     std::function<void(const std::string& stage, double seconds, const std::string& summary)> progress;
+
+    // The host has Gmsh initialised (gmsh::initialize; gmsh.initialize() in
+    // Python): the stages that reach Gmsh (reading a .msh input, meshing the
+    // core with layers = "prisms") work through the host's session, on
+    // scratch models of their own that are removed afterwards, the host's
+    // current model and options as they were (InputError when Gmsh has no
+    // model: not initialised). false: through a session of the library's own,
+    // gmsh::initialize before and gmsh::finalize after, which would end a
+    // session the host holds. As MshOptions::host_gmsh_session.
+    bool host_gmsh_session = false;
 };
 
 // A triangulated surface in mm, outward or inward wound (inward winding is
@@ -146,6 +156,26 @@ struct ImageOptions {
     std::optional<double> iso;           // default 0 for level sets, 0.5 for labels
     int connectivity = 6;                // inside voxel connectivity, 6 or 26
     std::string units = "mm";            // surface files only: "mm", "cm", "m" or "um"
+};
+
+// An image in memory, as a file would hold it: a label map, a mask, an
+// intensity image or a level set (ImageOptions says which), voxel (i, j, k)
+// centred at origin + (i spacing[0], j spacing[1], k spacing[2]) mm, the
+// index axes along the world axes x, y, z. A NumPy array vol[i, j, k]
+// (pygalmesh's generate_from_array convention) is this view with its strides
+// divided by its item size: for a C-ordered array strides (ny nz, nz, 1), for
+// a Fortran-ordered one (NIfTI's layout, x fastest) (1, nx, nx ny). The
+// voxels are read, never written, and need only live during the call.
+struct ImageView {
+    enum class Type { uint8, int8, uint16, int16, uint32, int32, uint64, int64, float32, float64 };
+    const void* data = nullptr;                   // voxel (0, 0, 0)
+    Type type = Type::uint8;
+    std::array<std::int64_t, 3> size = {};        // voxels along i, j, k
+    std::array<std::int64_t, 3> strides = {};     // elements (not bytes) from a voxel to its neighbour along
+                                                  // i, j, k; may be negative; all 0: x fastest, packed
+                                                  // (1, size[0], size[0] size[1])
+    std::array<double, 3> spacing = {1, 1, 1};    // mm between voxel centres along i, j, k
+    std::array<double, 3> origin = {0, 0, 0};     // mm: the centre of voxel (0, 0, 0)
 };
 
 // The layered tetrahedral mesh, in mm, as flat arrays, and the run that made
@@ -229,6 +259,19 @@ MeshResult mesh_surface(const SurfaceInput& surface, const MeshOptions& options 
 // has no way to read a level back, so it cannot be restored).
 MeshResult mesh_image(const std::filesystem::path& path, const MeshOptions& options = {},
                       const ImageOptions& image = {});
+
+// Meshes an image in memory exactly as mesh_image meshes a file holding the
+// same voxels with the same spacing and origin and an identity direction
+// (a MetaImage with Offset = origin and ElementSpacing = spacing; a NIfTI
+// whose ITK (LPS) origin and directions are these). ImageOptions as for a
+// file (labels, threshold, level_set, iso, connectivity); grid and units,
+// which name parts of files, must be left empty and "mm". No process-wide
+// effect. Throws InputError for a null data pointer, a size below 1 voxel
+// along an axis, more than 2^31 voxels, a non-positive or non-finite
+// spacing, a non-finite origin, NaN or infinite values, no voxel inside (as
+// for a file), and as mesh_surface for the options; StageError as
+// mesh_surface.
+MeshResult mesh_image(const ImageView& image, const MeshOptions& options = {}, const ImageOptions& how = {});
 
 // The OpenFOAM case's settings: the case file's [flow] and the OpenFOAM keys
 // of its [output], with its defaults, checked as the case file's are

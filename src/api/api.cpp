@@ -10,6 +10,8 @@
 #include "api/run_state.h"
 #include "core/errors.h"
 #include "core/surface_mesh.h"
+#include "exporters/gmsh_session.h"
+#include "importers/image_importer.h"
 #include "pipeline/case_config.h"
 #include "pipeline/pipeline.h"
 
@@ -18,6 +20,7 @@
 #include <charconv>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 namespace scalemesh {
 
@@ -109,19 +112,28 @@ CaseConfig case_for(const std::filesystem::path& file, const MeshOptions& o, con
     return config;
 }
 
-// `surface`: the input in memory, instead of the case's [input] file.
+// `surface` or `image`: the input in memory, instead of the case's [input] file.
 PipelineRun run_for_mesh(const CaseConfig& config, const MeshOptions& options,
-                         const LabelledSurface* surface = nullptr)
+                         const LabelledSurface* surface = nullptr, const VoxelArray* image = nullptr)
 {
     StageListener listener;
     if (options.progress)
         listener = [&](const StageTime& s) { options.progress(s.name, s.seconds, s.summary); };
+    // The host's session, adopted: the stages' own sessions nest in it and
+    // neither initialise nor finalise Gmsh.
+    std::optional<GmshSession> host;
+    if (options.host_gmsh_session) {
+        detail::require_gmsh_session("call gmsh::initialize (gmsh.initialize() in Python) first, or leave "
+                                     "host_gmsh_session false for a session of the library's own");
+        host.emplace(GmshSession::Host{});
+    }
     return run_pipeline(config,
                         {.sizing = true,
                          .remesh = true,
                          .volume = true,
                          .max_memory = options.max_memory,
-                         .surface = surface},
+                         .surface = surface,
+                         .image = image},
                         listener);
 }
 
@@ -320,6 +332,32 @@ std::vector<int32_t> nearest_labels(const SurfaceMesh& input, const std::vector<
     return out;
 }
 
+VoxelArray voxel_array(const ImageView& view)
+{
+    VoxelArray out;
+    out.data = view.data;
+    using T = ImageView::Type;
+    switch (view.type) {
+    case T::uint8: out.type = VoxelType::UInt8; break;
+    case T::int8: out.type = VoxelType::Int8; break;
+    case T::uint16: out.type = VoxelType::UInt16; break;
+    case T::int16: out.type = VoxelType::Int16; break;
+    case T::uint32: out.type = VoxelType::UInt32; break;
+    case T::int32: out.type = VoxelType::Int32; break;
+    case T::uint64: out.type = VoxelType::UInt64; break;
+    case T::int64: out.type = VoxelType::Int64; break;
+    case T::float32: out.type = VoxelType::Float32; break;
+    case T::float64: out.type = VoxelType::Float64; break;
+    default: throw InputError("the image's voxel type is not one of ImageView::Type", "give one of its types");
+    }
+    out.size = view.size;
+    out.strides = view.strides;
+    if (view.strides == std::array<int64_t, 3>{0, 0, 0}) out.strides = {1, view.size[0], view.size[0] * view.size[1]};
+    out.spacing = view.spacing;
+    out.origin = view.origin;
+    return out;
+}
+
 } // namespace
 
 MeshOptions::MeshOptions()
@@ -382,6 +420,24 @@ MeshResult mesh_image(const std::filesystem::path& path, const MeshOptions& opti
 {
     const CaseConfig config = case_for(std::filesystem::absolute(path), options, image);
     PipelineRun run = run_for_mesh(config, options);
+    MeshResult result = to_result(run, config);
+    keep_run(result, std::move(run), config, false);
+    return result;
+}
+
+MeshResult mesh_image(const ImageView& image, const MeshOptions& options, const ImageOptions& how)
+{
+    if (!how.grid.empty())
+        throw InputError("ImageOptions::grid names a grid of a .vdb file, and an image in memory is none",
+                         "leave grid empty");
+    if (how.units != "mm")
+        throw InputError("ImageOptions::units is the length unit of a surface file, and an image in memory is none",
+                         "give the spacing and origin in mm and leave units \"mm\"");
+    const VoxelArray voxels = voxel_array(image);
+    // The case's [input] file is never read: run_pipeline takes the voxels
+    // in memory (the name only makes the case an image case).
+    const CaseConfig config = case_for("image-in-memory.nii", options, how);
+    PipelineRun run = run_for_mesh(config, options, nullptr, &voxels);
     MeshResult result = to_result(run, config);
     keep_run(result, std::move(run), config, false);
     return result;

@@ -520,6 +520,10 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
                 const auto shape = make_shape(config.phantom, config.voxel_size);
                 grid = voxelize(*shape, {config.voxel_size, config.noise, config.seed});
                 run.input = "phantom:" + config.phantom;
+            } else if (options.image) {
+                grid = image_grid(*options.image, {config.labels, config.threshold, config.level_set,
+                                                   options.max_memory > 0 ? options.max_memory : physical_memory()});
+                run.input = "image given by the caller";
             } else if (ext == ".vdb") {
                 grid = read_vdb(file, {config.grid});
                 run.input = file.string();

@@ -21,6 +21,8 @@
 
 namespace scalemesh {
 
+struct VoxelArray; // importers/image_importer.h
+
 struct StageTime {
     std::string name;
     double seconds = 0;
@@ -87,6 +89,10 @@ struct PipelineOptions {
     // used), its labels as a file's face labels (flat labelled caps become
     // openings, open ends are cut flat). Not owned; must outlive the call.
     const LabelledSurface* surface = nullptr;
+    // The input image in memory (the library API), instead of the case's
+    // [input] file: read as an image file holding these voxels would be
+    // (importers/image_importer.h, image_grid). Not owned; must outlive the call.
+    const VoxelArray* image = nullptr;
 };
 
 // For a surface implausibly small or large in the case's unit (outside 0.5 mm

@@ -1,5 +1,6 @@
 // The Python module `scalemesh` (pybind11): mesh_surface on NumPy arrays or
-// flat sequences in gmsh.py's layout, and mesh_gmsh_model on the current
+// flat sequences in gmsh.py's layout or on a meshio.Mesh, mesh_image on an
+// image file or a NumPy array vol[i, j, k], and mesh_gmsh_model on the current
 // model of the gmsh.py session, which shares this process's libgmsh with the
 // library (src/python/CMakeLists.txt). Results are MeshResult objects: a
 // read-only mapping of NumPy arrays (as the dicts the module returned
@@ -65,7 +66,8 @@ MeshLength length_option(const char* key, const py::handle& value)
 
 const char* const option_names[] = {"K", "M", "G", "L_min", "L_max", "curvature", "smoothing_sweeps",
                                     "smoothing_omega", "smoothing_reach", "remesh_cycles", "growth", "first_layer",
-                                    "layers", "layer_tolerance", "threads", "max_memory", "openings", "progress"};
+                                    "layers", "layer_tolerance", "threads", "max_memory", "openings", "progress",
+                                    "gmsh_session"};
 
 const char* const opening_keys[] = {"name",   "type",  "point", "normal", "radius",
                                     "border", "inset", "near",  "label",  "extension"};
@@ -156,6 +158,7 @@ MeshOptions mesh_options(const py::kwargs& kwargs)
         else if (key == "layer_tolerance") o.layer_tolerance = value.cast<double>();
         else if (key == "threads") o.threads = value.cast<int>();
         else if (key == "max_memory") o.max_memory = value.cast<std::int64_t>();
+        else if (key == "gmsh_session") o.host_gmsh_session = value.cast<bool>();
         else if (key == "openings") {
             if (!value.is_none()) {
                 if (py::isinstance<py::dict>(value) || py::isinstance<py::str>(value) ||
@@ -262,10 +265,60 @@ PyMeshResult wrap(py::dict items, const MeshResult& mesh)
     return out;
 }
 
-PyMeshResult mesh_surface(const py::handle& points, const py::handle& triangles, const py::handle& labels,
-                      const py::handle& node_tags, const py::handle& label_names, const py::kwargs& kwargs)
+// The points and triangles of mesh_surface's first arguments: (points,
+// triangles), a tuple (points, triangles) alone, or a meshio.Mesh (told by
+// its points and cells, so that meshio is never imported here), whose
+// "triangle" cell blocks are the surface; vertex and line blocks (Gmsh's
+// points and curves) are left out, any other cell type is refused.
+std::pair<py::object, py::object> surface_arrays(const py::handle& points, const py::handle& triangles)
+{
+    const bool meshio = py::hasattr(points, "points") && py::hasattr(points, "cells");
+    if (!meshio) {
+        if (!triangles.is_none()) return {py::reinterpret_borrow<py::object>(points),
+                                          py::reinterpret_borrow<py::object>(triangles)};
+        if (py::isinstance<py::tuple>(points) && py::len(points) == 2) {
+            const py::tuple pair = points.cast<py::tuple>();
+            return {pair[0], pair[1]};
+        }
+        throw py::type_error("mesh_surface needs the triangles. Hint: give mesh_surface(points, triangles), "
+                             "mesh_surface((points, triangles)) or mesh_surface(meshio_mesh)");
+    }
+    if (!triangles.is_none())
+        throw py::type_error("mesh_surface got a meshio.Mesh and triangles. Hint: give the mesh alone; its "
+                             "\"triangle\" cells are the surface");
+    const py::object xyz = points.attr("points");
+    const py::array coordinates = py::array::ensure(xyz);
+    if (!coordinates || coordinates.ndim() != 2 || coordinates.shape(1) != 3)
+        throw py::value_error("the meshio.Mesh's points are not an (N, 3) array. Hint: give 3-D points in mm");
+    py::list blocks;
+    std::set<std::string> others;
+    for (const py::handle block : points.attr("cells")) {
+        // meshio's CellBlock: .type and .data (a (type, data) tuple in meshio 4).
+        const std::string type = py::hasattr(block, "type") ? py::str(block.attr("type")) : py::str(block[py::int_(0)]);
+        const py::object data = py::hasattr(block, "data") ? py::object(block.attr("data")) : py::object(block[py::int_(1)]);
+        if (type == "triangle") blocks.append(data);
+        else if (type != "vertex" && type != "line") others.insert(type);
+    }
+    if (!others.empty() || blocks.empty()) {
+        std::string types;
+        for (const std::string& t : others) types += (types.empty() ? "" : ", ") + t;
+        throw py::value_error(blocks.empty() ? "the meshio.Mesh has no \"triangle\" cells" +
+                                                   (types.empty() ? std::string() : " (it has " + types + ")") +
+                                                   ". Hint: give a triangulated surface (for a volume mesh, its "
+                                                   "boundary triangles)"
+                                             : "the meshio.Mesh has " + types + " cells besides its triangles. "
+                                               "Hint: give a surface of triangles only (split quads into "
+                                               "triangles; for a volume mesh, its boundary triangles)");
+    }
+    return {xyz, py::module_::import("numpy").attr("concatenate")(blocks)};
+}
+
+PyMeshResult mesh_surface(const py::handle& points_or_mesh, const py::handle& triangles_or_none,
+                          const py::handle& labels, const py::handle& node_tags, const py::handle& label_names,
+                          const py::kwargs& kwargs)
 {
     const MeshOptions options = mesh_options(kwargs);
+    const auto [points, triangles] = surface_arrays(points_or_mesh, triangles_or_none);
     scalemesh::SurfaceInput surface;
     surface.points = flat_doubles(points, "points");
     const std::vector<std::int64_t> corners = flat_integers(triangles, "triangles");
@@ -311,6 +364,138 @@ PyMeshResult mesh_surface(const py::handle& points, const py::handle& triangles,
     {
         py::gil_scoped_release released;
         result = scalemesh::mesh_surface(surface, options);
+    }
+    return wrap(result_dict(result), result);
+}
+
+// Three numbers (or one, for all three axes) as a spacing or an origin.
+std::array<double, 3> three_numbers(const char* what, const py::handle& value, const char* hint)
+{
+    const auto array = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(value);
+    if (array && array.ndim() == 0) return {array.data()[0], array.data()[0], array.data()[0]};
+    if (!array || array.size() != 3)
+        throw py::value_error(std::string(what) + " is not 3 numbers. Hint: " + hint);
+    return {array.data()[0], array.data()[1], array.data()[2]};
+}
+
+// The voxel types of ImageView, by NumPy's kind and item size.
+std::optional<scalemesh::ImageView::Type> voxel_type(char kind, py::ssize_t size)
+{
+    using T = scalemesh::ImageView::Type;
+    if (kind == 'u' || kind == 'b') {
+        if (size == 1) return T::uint8;
+        if (size == 2) return T::uint16;
+        if (size == 4) return T::uint32;
+        if (size == 8) return T::uint64;
+    } else if (kind == 'i') {
+        if (size == 1) return T::int8;
+        if (size == 2) return T::int16;
+        if (size == 4) return T::int32;
+        if (size == 8) return T::int64;
+    } else if (kind == 'f') {
+        if (size == 4) return T::float32;
+        if (size == 8) return T::float64;
+    }
+    return std::nullopt;
+}
+
+// A NumPy array vol[i, j, k] as an ImageView of its own memory (copied only
+// when its byte order is not the machine's or a stride is not a whole number
+// of items); `keep` holds the array the view points into.
+scalemesh::ImageView image_view(const py::handle& image, py::object& keep)
+{
+    py::array array = py::array::ensure(image);
+    if (!array)
+        throw py::type_error("image is neither a path nor an array. Hint: give a file path or a 3-D NumPy array "
+                             "vol[i, j, k]");
+    if (array.ndim() != 3) {
+        const std::string shape = py::str(py::tuple(array.attr("shape")));
+        throw py::value_error("the image array has " + std::to_string(array.ndim()) + " dimension" +
+                              (array.ndim() == 1 ? "" : "s") + " (shape " + shape +
+                              "); a 3-D volume vol[i, j, k] is needed. Hint: stack the slices into one 3-D array "
+                              "(numpy.stack(slices, axis=2))");
+    }
+    const py::dtype dtype = array.dtype();
+    const auto type = voxel_type(dtype.kind(), dtype.itemsize());
+    if (!type)
+        throw py::type_error("the image array holds " + py::str(static_cast<const py::handle&>(dtype)).cast<std::string>() +
+                             " values, which are not read. Hint: give bool, uint8, int8, uint16, int16, uint32, "
+                             "int32, uint64, int64, float32 or float64 (e.g. vol.astype(numpy.float32))");
+    if (!dtype.attr("isnative").cast<bool>()) array = array.attr("astype")(dtype.attr("newbyteorder")("="));
+    for (int d = 0; d < 3; ++d)
+        if (array.strides(d) % array.itemsize() != 0) {
+            array = py::module_::import("numpy").attr("ascontiguousarray")(array);
+            break;
+        }
+    scalemesh::ImageView view;
+    view.data = array.data();
+    view.type = *type;
+    for (int d = 0; d < 3; ++d) {
+        view.size[d] = array.shape(d);
+        view.strides[d] = array.strides(d) / array.itemsize();
+    }
+    keep = array;
+    return view;
+}
+
+// ImageOptions from mesh_image's keywords; the library checks them as the
+// case reader checks [input] (ValueError naming the key).
+scalemesh::ImageOptions image_options(const py::handle& labels, const py::handle& threshold, bool level_set,
+                                      const py::handle& iso, int connectivity, const py::handle& grid,
+                                      const std::string& units)
+{
+    scalemesh::ImageOptions how;
+    if (!labels.is_none()) {
+        const py::array values = py::array::ensure(labels);
+        if (!values || (values.size() > 0 && values.dtype().kind() != 'i' && values.dtype().kind() != 'u'))
+            throw py::type_error("labels is not an integer or a list of integers. Hint: give the label values "
+                                 "that are inside, e.g. labels=[1] or labels=1");
+        for (std::int64_t label : flat_integers(values, "labels")) {
+            if (label < std::numeric_limits<int>::min() || label > std::numeric_limits<int>::max())
+                throw py::value_error("labels hold " + std::to_string(label) + ", beyond a 32-bit label");
+            how.labels.push_back(static_cast<int>(label));
+        }
+        if (how.labels.empty())
+            throw py::value_error("labels is empty. Hint: give the label values that are inside, or None for "
+                                  "every nonzero voxel");
+    }
+    if (!threshold.is_none()) how.threshold = threshold.cast<double>();
+    how.level_set = level_set;
+    if (!iso.is_none()) how.iso = iso.cast<double>();
+    how.connectivity = connectivity;
+    if (!grid.is_none()) how.grid = grid.cast<std::string>();
+    how.units = units;
+    return how;
+}
+
+PyMeshResult mesh_image(const py::handle& image, const py::handle& spacing, const py::handle& origin,
+                        const py::handle& labels, const py::handle& threshold, bool level_set, const py::handle& iso,
+                        int connectivity, const py::handle& grid, const std::string& units, const py::kwargs& kwargs)
+{
+    const MeshOptions options = mesh_options(kwargs);
+    const scalemesh::ImageOptions how =
+        image_options(labels, threshold, level_set, iso, connectivity, grid, units);
+    MeshResult result;
+    if (py::isinstance<py::str>(image) || py::isinstance<py::bytes>(image) ||
+        py::hasattr(image, "__fspath__")) {
+        if (!spacing.is_none() || !origin.is_none())
+            throw py::value_error("spacing and origin are given for an image file, whose header holds them. Hint: "
+                                  "give them only with an array");
+        const std::filesystem::path path = path_argument(image);
+        py::gil_scoped_release released;
+        result = scalemesh::mesh_image(path, options, how);
+    } else {
+        py::object keep;
+        scalemesh::ImageView view = image_view(image, keep);
+        if (spacing.is_none())
+            throw py::value_error("an image array needs its spacing. Hint: give spacing=(sx, sy, sz), the distance "
+                                  "between voxel centres along i, j, k in mm");
+        view.spacing = three_numbers("spacing", spacing, "give spacing=(sx, sy, sz) in mm");
+        if (!origin.is_none())
+            view.origin = three_numbers("origin", origin, "give origin=(ox, oy, oz), the centre of vol[0, 0, 0] in mm");
+        // The array stays referenced (keep) and unchanged by this thread while the run reads it.
+        py::gil_scoped_release released;
+        result = scalemesh::mesh_image(view, options, how);
     }
     return wrap(result_dict(result), result);
 }
@@ -413,12 +598,15 @@ py::object to_meshio(const PyMeshResult& r)
 
 PYBIND11_MODULE(scalemesh, m)
 {
-    m.doc() = R"(scalemesh: layered tetrahedral meshes for CFD from surfaces.
+    m.doc() = R"(scalemesh: layered tetrahedral meshes for CFD from surfaces and images.
 
 mesh_surface(points, triangles, labels=None, *, node_tags=None, label_names=None, **options)
+mesh_surface(meshio_mesh, **options)
+mesh_image(path_or_array, spacing=None, origin=None, labels=None, *, threshold=None, level_set=False,
+           iso=None, connectivity=6, grid=None, units="mm", **options)
 mesh_gmsh_model(physical_group=None, *, volume_name="fluid", views=True, **options)
 
-Both return a MeshResult: a read-only mapping of NumPy arrays (result["points"],
+Each returns a MeshResult: a read-only mapping of NumPy arrays (result["points"],
 ...), with write_openfoam(case_dir), write_msh(path), report and to_meshio().
 
 Options (keyword arguments, defaults those of the case file scalemesh.toml,
@@ -430,6 +618,11 @@ summary) is called when a stage starts (seconds < 0) and ends. openings is a
 list of dicts with the keys of the case file's [[openings]] tables (name,
 type, point, normal, radius, border, inset, near, label, extension), e.g.
 {"name": "inlet", "type": "inlet", "near": [0, 0, -15]} for an open end.
+gmsh_session=True when gmsh.py is initialised (gmsh.initialize()): reading
+a .msh input and the core of layers="prisms" go through that session, the
+current model and options left as they were; with the default False the
+library initialises and finalises Gmsh around them, which would end a
+gmsh.py session (mesh_gmsh_model always works in the gmsh.py session).
 
 Errors: ValueError (bad input or options: the message says what to change),
 RuntimeError (a stage failed), OSError (a file).)";
@@ -529,7 +722,8 @@ around the write, which would end a gmsh.py session.)")
 [patch id, 2]}.)");
     py::module_::import("collections.abc").attr("Mapping").attr("register")(result);
 
-    m.def("mesh_surface", &mesh_surface, py::arg("points"), py::arg("triangles"), py::arg("labels") = py::none(),
+    m.def("mesh_surface", &mesh_surface, py::arg("points"), py::arg("triangles") = py::none(),
+          py::arg("labels") = py::none(),
           py::kw_only(), py::arg("node_tags") = py::none(), py::arg("label_names") = py::none(),
           R"(Meshes a triangulated surface (mm) as `scalemesh run` meshes a surface file.
 
@@ -538,7 +732,9 @@ loops are vessel ends): each open end is cut flat, capped and becomes an
 opening, named by openings=[{"name": ..., "type": ..., "near": [x, y, z]}]
 or else "inlet" (the largest) and outlet_1, outlet_2, ...
 
-points: (N, 3) or flat 3N coordinates. triangles: (M, 3) or flat 3M 0-based
+points: (N, 3) or flat 3N coordinates, or a meshio.Mesh (its "triangle" cells
+are the surface; vertex and line cells are left out, other cells refused), or
+a tuple (points, triangles), with triangles then left out. triangles: (M, 3) or flat 3M 0-based
 indices into points, or, with node_tags, Gmsh node tags (the layout of
 gmsh.model.mesh.getNodes and getElementsByType(2): node_tags are the tags of
 the points in order, triangles hold tags). labels: one integer per triangle,
@@ -554,6 +750,34 @@ points), point_layer (N,), point_generator (N,) (the boundary node each point
 was made from), point_filler (N,) (True for filler and edge-split points; the
 column of boundary node i is the points with generator i and not filler, in
 the order of point_layer), aspect_ratio (T,), tet_layer (T,).)");
+
+    m.def("mesh_image", &mesh_image, py::arg("image"), py::arg("spacing") = py::none(),
+          py::arg("origin") = py::none(), py::arg("labels") = py::none(), py::kw_only(),
+          py::arg("threshold") = py::none(), py::arg("level_set") = false, py::arg("iso") = py::none(),
+          py::arg("connectivity") = scalemesh::ImageOptions{}.connectivity, py::arg("grid") = py::none(),
+          py::arg("units") = scalemesh::ImageOptions{}.units,
+          R"(Meshes an image, a file or a NumPy array, as `scalemesh run` meshes an image file.
+
+image: a path (.vdb, .nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd, .vti, or a
+surface file .stl, .ply, .obj, .vtp, .msh), or a 3-D array vol[i, j, k]
+(pygalmesh's generate_from_array convention) of bool, uint8, int8, uint16,
+int16, uint32, int32, uint64, int64, float32 or float64, whose voxel (i, j, k)
+is centred at origin + (i * spacing[0], j * spacing[1], k * spacing[2]) mm:
+the first index runs along x, the last along z, whatever the array's memory
+order (C or Fortran order, or any strides; the voxels are read in place).
+The array meshes exactly as a MetaImage holding the same voxels with
+Offset = origin and ElementSpacing = spacing would.
+
+spacing: (sx, sy, sz) in mm (or one number for all three), needed with an
+array; origin: (ox, oy, oz) in mm, default (0, 0, 0); a file's header holds
+both. How voxels become inside, as the case file's [input]: labels (an
+integer or a list: those values are inside), threshold (inside where value >
+threshold), level_set=True (a signed distance, negative inside), or, with none
+of them, every nonzero voxel; iso (default 0.5, 0 for level sets),
+connectivity (6 or 26). grid (a .vdb's grid) and units (a surface file's) are
+for files only. Options (openings, K, M, ...) as mesh_surface's.
+
+Returns a MeshResult as mesh_surface's.)");
 
     m.def("mesh_gmsh_model", &mesh_gmsh_model, py::arg("physical_group") = py::none(), py::kw_only(),
           py::arg("volume_name") = "fluid", py::arg("views") = true,

@@ -89,8 +89,8 @@ class MeshResult(Mapping[str, Any]):
 
 
 def mesh_surface(
-    points: npt.ArrayLike,
-    triangles: npt.ArrayLike,
+    points: npt.ArrayLike | Any | tuple[npt.ArrayLike, npt.ArrayLike],
+    triangles: npt.ArrayLike | None = None,
     labels: npt.ArrayLike | None = None,
     *,
     node_tags: npt.ArrayLike | None = None,
@@ -113,8 +113,56 @@ def mesh_surface(
     max_memory: int = ...,
     openings: Sequence[Opening] | None = ...,
     progress: Callable[[str, float, str], None] | None = ...,
+    gmsh_session: bool = ...,
 ) -> MeshResult:
-    """Meshes a closed or open-ended triangulated surface (mm) as `scalemesh run` meshes a surface file."""
+    """Meshes a closed or open-ended triangulated surface (mm) as `scalemesh run` meshes a surface file.
+
+    points: (N, 3) coordinates with triangles (M, 3) 0-based indices; or a
+    tuple (points, triangles); or a meshio.Mesh, whose "triangle" cells are
+    the surface (vertex and line cells left out, other cells refused).
+    """
+
+
+def mesh_image(
+    image: PathLike | npt.NDArray[Any],
+    spacing: float | Sequence[float] | None = None,
+    origin: Sequence[float] | None = None,
+    labels: int | Sequence[int] | None = None,
+    *,
+    threshold: float | None = None,
+    level_set: bool = False,
+    iso: float | None = None,
+    connectivity: Literal[6, 26] = 6,
+    grid: str | None = None,
+    units: Literal["mm", "cm", "m", "um"] = "mm",
+    K: float = ...,
+    M: float = ...,
+    G: float = ...,
+    L_min: Length = ...,
+    L_max: Length | None = ...,
+    curvature: bool = ...,
+    smoothing_sweeps: int = ...,
+    smoothing_omega: float = ...,
+    smoothing_reach: Length = ...,
+    remesh_cycles: int = ...,
+    growth: float = ...,
+    first_layer: Literal["edge", "paper"] = ...,
+    layers: Literal["delaunay", "prisms"] = ...,
+    layer_tolerance: float = ...,
+    threads: int = ...,
+    max_memory: int = ...,
+    openings: Sequence[Opening] | None = ...,
+    progress: Callable[[str, float, str], None] | None = ...,
+    gmsh_session: bool = ...,
+) -> MeshResult:
+    """Meshes an image file, or a 3-D array vol[i, j, k], as `scalemesh run` meshes an image file.
+
+    An array's voxel (i, j, k) is centred at origin + (i sx, j sy, k sz) mm
+    (spacing (sx, sy, sz) needed, origin default (0, 0, 0)), whatever its
+    memory order; bool, (u)int8 to (u)int64, float32 or float64 voxels. It
+    meshes exactly as a MetaImage of the same voxels with Offset = origin and
+    ElementSpacing = spacing.
+    """
 
 
 def mesh_gmsh_model(

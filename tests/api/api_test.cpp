@@ -15,8 +15,11 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <map>
 #include <set>
+#include <string>
+#include <vector>
 #include <utility>
 
 namespace {
@@ -309,6 +312,142 @@ TEST(Api, BadInputThrowsInputErrorSayingWhat)
         EXPECT_NE(std::string(e.what()).find("K"), std::string::npos) << e.what();
     }
     EXPECT_THROW(scalemesh::mesh_image("/nonexistent/image.vdb"), scalemesh::Error);
+}
+
+// An ellipsoid of semi-axes (a, b, c) mm centred in an nx x ny x nz label
+// image of the given spacing and origin, stored C-ordered as NumPy holds
+// vol[i, j, k]: k fastest.
+struct Ellipsoid {
+    std::array<int64_t, 3> n{};
+    std::array<double, 3> spacing{}, origin{}, semi_axes{};
+    std::vector<uint8_t> voxels; // [i][j][k]
+    Ellipsoid(std::array<int64_t, 3> n_, std::array<double, 3> spacing_, std::array<double, 3> origin_,
+              std::array<double, 3> semi_axes_)
+        : n(n_), spacing(spacing_), origin(origin_), semi_axes(semi_axes_), voxels(n[0] * n[1] * n[2])
+    {
+        for (int64_t i = 0; i < n[0]; ++i)
+            for (int64_t j = 0; j < n[1]; ++j)
+                for (int64_t k = 0; k < n[2]; ++k) {
+                    const std::array<int64_t, 3> index{i, j, k};
+                    double r2 = 0;
+                    for (int d = 0; d < 3; ++d) {
+                        const double x = (index[d] - (n[d] - 1) / 2.0) * spacing[d];
+                        r2 += x * x / (semi_axes[d] * semi_axes[d]);
+                    }
+                    voxels[(i * n[1] + j) * n[2] + k] = r2 < 1 ? 1 : 0;
+                }
+    }
+    scalemesh::ImageView view() const
+    {
+        scalemesh::ImageView v;
+        v.data = voxels.data();
+        v.type = scalemesh::ImageView::Type::uint8;
+        v.size = n;
+        v.strides = {n[1] * n[2], n[2], 1};
+        v.spacing = spacing;
+        v.origin = origin;
+        return v;
+    }
+    // The same voxels in a MetaImage file (x fastest, as the format has them).
+    void write_mha(const std::string& path) const
+    {
+        std::ofstream out(path, std::ios::binary);
+        char number[64];
+        const auto three = [&](const std::array<double, 3>& v) {
+            std::string text;
+            for (double x : v) {
+                std::snprintf(number, sizeof number, " %.17g", x);
+                text += number;
+            }
+            return text;
+        };
+        out << "ObjectType = Image\nNDims = 3\nBinaryData = True\nBinaryDataByteOrderMSB = False\n"
+            << "TransformMatrix = 1 0 0 0 1 0 0 0 1\nOffset =" << three(origin) << "\nElementSpacing ="
+            << three(spacing) << "\nDimSize = " << n[0] << " " << n[1] << " " << n[2]
+            << "\nElementType = MET_UCHAR\nElementDataFile = LOCAL\n";
+        for (int64_t k = 0; k < n[2]; ++k)
+            for (int64_t j = 0; j < n[1]; ++j)
+                for (int64_t i = 0; i < n[0]; ++i) out.put(static_cast<char>(voxels[(i * n[1] + j) * n[2] + k]));
+    }
+};
+
+std::array<std::array<double, 2>, 3> bounds(const MeshResult& m)
+{
+    std::array<std::array<double, 2>, 3> out;
+    for (int d = 0; d < 3; ++d) out[d] = {1e300, -1e300};
+    for (size_t i = 0; i < m.point_count(); ++i)
+        for (int d = 0; d < 3; ++d) {
+            out[d][0] = std::min(out[d][0], m.points[3 * i + d]);
+            out[d][1] = std::max(out[d][1], m.points[3 * i + d]);
+        }
+    return out;
+}
+
+// vol[i, j, k] lies at origin + (i, j, k) * spacing: an ellipsoid long along
+// x (index i) gives a mesh long along x, centred where the image's centre
+// is; and the same voxels in a MetaImage file give the same mesh.
+TEST(Api, MeshesAnArrayAsTheSameVoxelsInAFile)
+{
+    const Ellipsoid image({26, 12, 10}, {0.5, 0.6, 0.7}, {10, -4, 2.5}, {5.5, 2.6, 2.4});
+    const MeshResult m = scalemesh::mesh_image(image.view());
+    expect_valid_mesh(m);
+    const auto box = bounds(m);
+    for (int d = 0; d < 3; ++d) {
+        const double centre = image.origin[d] + (image.n[d] - 1) / 2.0 * image.spacing[d];
+        EXPECT_NEAR((box[d][0] + box[d][1]) / 2, centre, image.spacing[d]) << "axis " << d;
+        // The voxelised ellipsoid reaches within a voxel of each semi-axis.
+        EXPECT_NEAR((box[d][1] - box[d][0]) / 2, image.semi_axes[d], image.spacing[d]) << "axis " << d;
+    }
+    EXPECT_GT(box[0][1] - box[0][0], 1.8 * (box[1][1] - box[1][0]));
+
+    const scalemesh::TempDir dir;
+    const std::string file = (dir.path / "ellipsoid.mha").string();
+    image.write_mha(file);
+    const MeshResult from_file = scalemesh::mesh_image(file);
+    EXPECT_EQ(from_file.points, m.points);
+    EXPECT_EQ(from_file.tets, m.tets);
+
+    // The same voxels x fastest (a Fortran-ordered array, NIfTI's layout),
+    // given by their strides, or by default strides of all 0.
+    std::vector<uint8_t> x_fastest(image.voxels.size());
+    for (int64_t i = 0; i < image.n[0]; ++i)
+        for (int64_t j = 0; j < image.n[1]; ++j)
+            for (int64_t k = 0; k < image.n[2]; ++k)
+                x_fastest[(k * image.n[1] + j) * image.n[0] + i] = image.voxels[(i * image.n[1] + j) * image.n[2] + k];
+    scalemesh::ImageView fortran = image.view();
+    fortran.data = x_fastest.data();
+    fortran.strides = {1, image.n[0], image.n[0] * image.n[1]};
+    EXPECT_EQ(scalemesh::mesh_image(fortran).points, m.points);
+    fortran.strides = {0, 0, 0};
+    EXPECT_EQ(scalemesh::mesh_image(fortran).points, m.points);
+}
+
+TEST(Api, BadImageArraysThrowInputErrorSayingWhat)
+{
+    const Ellipsoid image({8, 8, 8}, {1, 1, 1}, {0, 0, 0}, {2.5, 2.5, 2.5});
+    const auto refused = [](const scalemesh::ImageView& view, const scalemesh::ImageOptions& how, const char* says) {
+        try {
+            scalemesh::mesh_image(view, {}, how);
+            ADD_FAILURE() << "accepted; expected an error saying " << says;
+        } catch (const scalemesh::InputError& e) {
+            EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
+        }
+    };
+    scalemesh::ImageView view = image.view();
+    view.spacing[1] = 0;
+    refused(view, {}, "spacing 0 along axis 1; spacings must be positive");
+    view = image.view();
+    view.size[2] = 0;
+    refused(view, {}, "every axis needs at least one voxel");
+    view = image.view();
+    view.data = nullptr;
+    refused(view, {}, "null pointer");
+    const std::vector<uint8_t> empty(image.voxels.size(), 0);
+    view = image.view();
+    view.data = empty.data();
+    refused(view, {}, "has no nonzero voxel");
+    refused(image.view(), {.labels = {7}}, "label 7 not present in the image; labels present: 0, 1");
+    refused(image.view(), {.grid = "density"}, "grid names a grid of a .vdb file");
 }
 
 TEST(Api, MeshesAnImage)

@@ -164,10 +164,31 @@ class TestStub(unittest.TestCase):
         methods = {n.name for n in classes["MeshResult"].body if isinstance(n, ast.FunctionDef)}
         defined = {name for name in dir(scalemesh.MeshResult) if not name.startswith("_")}
         self.assertEqual({m for m in methods if not m.startswith("_")}, defined)
+        options = set(scalemesh.defaults()) | {"openings", "progress", "gmsh_session"}
         for function in functions - {"defaults"}:
-            arguments = {a.arg for a in getattr(next(n for n in tree.body if getattr(n, "name", "") == function),
-                                                "args").kwonlyargs}
+            node = next(n for n in tree.body if getattr(n, "name", "") == function)
+            arguments = {a.arg for a in node.args.kwonlyargs}
             self.assertIn("threads", arguments, function)
+            # The stub's own parameters (not the options) are the module's,
+            # in order, positional or keyword-only alike, with defaults alike
+            # (pybind11's signature line: "name(a: handle, b: handle = None,
+            # *, c: bool = False, **kwargs) -> ...").
+            signature = getattr(scalemesh, function).__doc__.splitlines()[0]
+            parameters = signature[signature.index("(") + 1:signature.rindex(") ->")].split(", ")
+            module_positional, module_keyword, keyword = [], [], False
+            for parameter in parameters:
+                if parameter == "*":
+                    keyword = True
+                elif not parameter.startswith("**"):
+                    name = parameter.split(":")[0]
+                    (module_keyword if keyword else module_positional).append((name, "=" in parameter))
+            positional = node.args.args
+            first_default = len(positional) - len(node.args.defaults)
+            self.assertEqual([(a.arg, i >= first_default) for i, a in enumerate(positional)], module_positional,
+                             function)
+            stub_keyword = [(a.arg, d is not None) for a, d in zip(node.args.kwonlyargs, node.args.kw_defaults)
+                            if a.arg not in options]
+            self.assertEqual(stub_keyword, module_keyword, function)
 
 
 if __name__ == "__main__":
