@@ -7,9 +7,11 @@
 // the report (report_json). The stages, parameters and guarantees are those
 // of `scalemesh run` (docs/method.md, docs/case-file.md); the library never
 // prints, never exits and changes no process-wide setting (threads run in a
-// TBB arena of its own), but for the few that mesh_image, write_msh and, with
-// layers = "prisms", mesh_surface list. Its options are read alike under any LC_NUMERIC; ITK's and Gmsh's
-// file readers follow the locale the host set.
+// TBB arena of its own), but for the few that mesh_image on a file,
+// write_msh and, with layers = "prisms", mesh_surface list (a host that holds
+// a Gmsh session says so: MeshOptions::host_gmsh_session,
+// MshOptions::host_gmsh_session). Its options are read alike under any
+// LC_NUMERIC; ITK's and Gmsh's file readers follow the locale the host set.
 //
 // Errors are the exceptions of <scalemesh/errors.h>, all derived from
 // std::runtime_error: InputError (bad input or options; the message says what
@@ -246,17 +248,18 @@ MeshResult mesh_surface(const SurfaceInput& surface, const MeshOptions& options 
 // surface file (.stl, .ply, .obj, .vtp, .msh; closed or open-ended, with face
 // labels), as `scalemesh run` does a case with `file = path`. Throws IoError
 // for a file that cannot be read, InputError and StageError as mesh_surface.
-// Three process-wide effects remain on this path: a .msh file is read through
-// a Gmsh session of the library's own (gmsh::initialize and finalize), so do
-// not call it on a .msh while the host has Gmsh initialised (use
-// mesh_gmsh_model, gmsh_model.h, on a model the host merged instead; the
-// same holds for both functions with layers = "prisms", whose core Gmsh
-// meshes); and a
-// MetaImage read swaps std::cerr's buffer while ITK's MetaIO reads (it
-// reports truncated compressed data only there), under the importers' lock
-// (a NIfTI or NRRD read leaves std::cerr alone); and a NIfTI read leaves
-// nifti1_io's debug level at 0, as ITK's NIfTI reader sets it (nifti1_io
-// has no way to read a level back, so it cannot be restored).
+// A .msh file is read through a Gmsh session: the host's with
+// MeshOptions::host_gmsh_session, else one of the library's own
+// (gmsh::initialize and finalize, which would end a session the host holds;
+// the same holds for both functions with layers = "prisms", whose core Gmsh
+// meshes). Two process-wide effects remain on this path: a MetaImage read
+// swaps std::cerr's buffer while ITK's MetaIO reads (MetaIO writes to
+// std::cerr itself, not through ITK's output window, and reports truncated
+// data and header faults only there), under the importers' lock (a NIfTI or
+// NRRD read leaves std::cerr alone); and a NIfTI read leaves nifti1_io's
+// debug level at 0, as ITK's NIfTI reader sets it in its constructor
+// (nifti1_io has no way to read a level back, so it cannot be restored).
+// An image in memory (the overload below) has neither effect.
 MeshResult mesh_image(const std::filesystem::path& path, const MeshOptions& options = {},
                       const ImageOptions& image = {});
 

@@ -294,8 +294,9 @@ std::pair<py::object, py::object> surface_arrays(const py::handle& points, const
     std::set<std::string> others;
     for (const py::handle block : points.attr("cells")) {
         // meshio's CellBlock: .type and .data (a (type, data) tuple in meshio 4).
-        const std::string type = py::hasattr(block, "type") ? py::str(block.attr("type")) : py::str(block[py::int_(0)]);
-        const py::object data = py::hasattr(block, "data") ? py::object(block.attr("data")) : py::object(block[py::int_(1)]);
+        const bool named = py::hasattr(block, "type") && py::hasattr(block, "data");
+        const std::string type = py::str(named ? py::object(block.attr("type")) : py::object(block[py::int_(0)]));
+        const py::object data = named ? py::object(block.attr("data")) : py::object(block[py::int_(1)]);
         if (type == "triangle") blocks.append(data);
         else if (type != "vertex" && type != "line") others.insert(type);
     }
@@ -418,7 +419,7 @@ scalemesh::ImageView image_view(const py::handle& image, py::object& keep)
     const py::dtype dtype = array.dtype();
     const auto type = voxel_type(dtype.kind(), dtype.itemsize());
     if (!type)
-        throw py::type_error("the image array holds " + py::str(static_cast<const py::handle&>(dtype)).cast<std::string>() +
+        throw py::type_error("the image array holds " + dtype.attr("name").cast<std::string>() +
                              " values, which are not read. Hint: give bool, uint8, int8, uint16, int16, uint32, "
                              "int32, uint64, int64, float32 or float64 (e.g. vol.astype(numpy.float32))");
     if (!dtype.attr("isnative").cast<bool>()) array = array.attr("astype")(dtype.attr("newbyteorder")("="));

@@ -184,6 +184,21 @@ class TestHostGmshSession(unittest.TestCase):
             scalemesh.mesh_image(path, gmsh_session=True)
 
 
+class TestReadmeExample(unittest.TestCase):
+    def test_the_image_array_example_runs_as_written(self):
+        readme = os.path.join(os.path.dirname(__file__), "..", "..", "README.md")
+        with open(readme) as f:
+            text = f.read()
+        marker = text.index("<!-- example: image-array")
+        start = text.index("```python\n", marker) + len("```python\n")
+        code = text[start:text.index("```", start)]
+        namespace = {}
+        exec(compile(code, "README.md image-array example", "exec"), namespace)
+        # The example asserts that the mesh runs along x; and each call meshed.
+        for name in ("mesh", "labelled", "again"):
+            self.assertGreater(len(namespace[name]["tets"]), 0, name)
+
+
 class TestMeshSurfaceMeshio(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
