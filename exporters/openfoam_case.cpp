@@ -50,11 +50,7 @@ public:
         if (ec) throw IoError(path.string(), "cannot make the script executable: " + ec.message());
     }
 
-    void commit(StagedOutputs* staged)
-    {
-        if (!staged) return commit_all(outputs_);
-        for (auto& out : outputs_) staged->push_back(std::move(out));
-    }
+    void commit(StagedOutputs* staged) { commit_or_stage(outputs_, staged); }
 
 private:
     std::filesystem::path dir_;
@@ -64,7 +60,7 @@ private:
 // Plain bash for Debian's OpenFOAM (tools on PATH, no RunFunctions): each
 // tool's output in log.<tool>, a non-zero exit naming the log when one
 // fails. checkMesh exits 0 even when a check fails, so its log is read.
-std::string allrun_script(bool flow)
+std::string allrun_script(bool flow, int processors)
 {
     std::string text = R"SH(#!/bin/bash
 # Written by scalemesh: checks the mesh)SH" + std::string(flow ? " and runs the steady laminar flow (simpleFoam)" : "") +
@@ -90,7 +86,29 @@ run() {
 run checkMesh
 grep -q "^Mesh OK\." log.checkMesh || fail "checkMesh found a failed mesh check; see $PWD/log.checkMesh" log.checkMesh
 )SH";
-    if (flow) text += "run simpleFoam\n";
+    if (processors <= 1) {
+        if (flow) text += "run simpleFoam\n";
+        return text;
+    }
+    // Open MPI refuses root without these, and more ranks than cores
+    // without the last.
+    text += "\n# The processor meshes processor0 .. processor" + std::to_string(processors - 1) +
+            ", each tool's output in log.<tool>.parallel.\nprocessors=" + std::to_string(processors) + R"SH(
+[ "$(id -u)" = 0 ] && export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+export OMPI_MCA_rmaps_base_oversubscribe=1
+
+prun() {
+    command -v mpirun >/dev/null 2>&1 || fail "mpirun not found: install the Debian package openmpi-bin"
+    echo "Running $1 on $processors processors on $PWD"
+    mpirun -np "$processors" "$1" -parallel -case . > "log.$1.parallel" 2>&1 ||
+        fail "$1 failed (exit code $?); see $PWD/log.$1.parallel" "log.$1.parallel"
+}
+
+prun checkMesh
+grep -q "^Mesh OK\." log.checkMesh.parallel ||
+    fail "checkMesh -parallel found a failed mesh check; see $PWD/log.checkMesh.parallel" log.checkMesh.parallel
+)SH";
+    if (flow) text += "prun simpleFoam\nrun reconstructPar\n";
     return text;
 }
 
@@ -104,6 +122,7 @@ bool write_openfoam_case(const std::filesystem::path& case_dir, const std::vecto
     if (!(settings.inlet_speed > 0) || !std::isfinite(settings.inlet_speed))
         throw InputError("the inlet speed must be a positive number (m/s)", "give e.g. 0.1");
     if (settings.iterations < 1) throw InputError("the iteration count must be at least 1", "give e.g. 2000");
+    if (settings.processors < 1) throw InputError("the processor count must be at least 1", "give decompose = 2 or more, or leave it out");
     if (roles.size() != patch_names.size())
         throw InputError("every patch needs a role (wall, inlet or outlet)", "give one role per patch");
 
@@ -190,9 +209,18 @@ bool write_openfoam_case(const std::filesystem::path& case_dir, const std::vecto
         p << "}\n";
         files.add("0/U", U.str());
         files.add("0/p", p.str());
+        // The processor patches are in the group `processor`, as
+        // decomposePar writes them.
+        const std::string processor = "    processor\n    {\n        type            processor;\n"
+                                      "        value           $internalField;\n    }\n}\n";
+        for (int i = 0; i < settings.processors && settings.processors > 1; ++i) {
+            const std::string dir = "processor" + std::to_string(i) + "/0/";
+            files.add(dir + "U", U.str().substr(0, U.str().size() - 2) + processor);
+            files.add(dir + "p", p.str().substr(0, p.str().size() - 2) + processor);
+        }
     }
-    
-    files.add_script("Allrun", allrun_script(flow));
+
+    files.add_script("Allrun", allrun_script(flow, settings.processors));
     files.commit(settings.staged);
     return flow;
 }

@@ -16,6 +16,9 @@ struct FlowSettings {
     double kinematic_viscosity = 3.3e-6; // m^2/s; blood is about 3.3e-6, air 1.5e-5
     double inlet_speed = 0.1;            // m/s, uniform (plug) inflow normal to each inlet
     int iterations = 2000;               // SIMPLE iterations at most; residual control stops earlier
+    // Above 1: the mesh is also written as that many processor meshes
+    // (write_decomposed_polymesh), and the flow is solved on them.
+    int processors = 1;
     // As PolyMeshOptions::staged: where given, the files are handed over
     // uncommitted.
     StagedOutputs* staged = nullptr;
@@ -29,7 +32,12 @@ struct FlowSettings {
 // no flow problem is posed. Beside them an executable `Allrun` (plain bash,
 // for Debian's OpenFOAM): checkMesh, then simpleFoam when the flow fields are
 // written, each into log.<tool>, exiting non-zero when a tool fails or
-// checkMesh finds a failed check. Patch names and roles are those of the polyMesh
+// checkMesh finds a failed check. With settings.processors above 1, also
+// processor<i>/0/U and p (the same fields, the processor patches given
+// `type processor` through their group), and Allrun checks the pieces with
+// `mpirun -np N checkMesh -parallel`, solves with `mpirun -np N simpleFoam
+// -parallel` and puts the last time back together with reconstructPar.
+// Patch names and roles are those of the polyMesh
 // boundary file, in its order. Every file is written atomically. Throws
 // InputError for a non-positive viscosity or speed, IoError on write failure.
 // Returns whether the flow fields (0/) were written.

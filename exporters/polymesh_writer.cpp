@@ -85,19 +85,7 @@ public:
 
     void header(const std::string& cls, const std::string& object, const std::string& note = "")
     {
-        text("FoamFile\n{\n    version     2.0;\n    format      ");
-        text(binary_ ? "binary" : "ascii");
-        text(";\n    arch        \"LSB;label=32;scalar=64\";\n    class       ");
-        text(cls);
-        text(";\n    location    \"constant/polyMesh\";\n");
-        if (!note.empty()) {
-            text("    note        \"");
-            text(note);
-            text("\";\n");
-        }
-        text("    object      ");
-        text(object);
-        text(";\n}\n\n");
+        text(foam_file_header(binary_, cls, "constant/polyMesh", object, note));
     }
 
     void text(std::string_view s) { out_.write(s.data(), static_cast<std::streamsize>(s.size())); }
@@ -502,6 +490,17 @@ FaceGeometry openfoam_face(const TetMesh& mesh, const int32_t* p, int count)
 
 } // namespace
 
+std::string foam_file_header(bool binary, const std::string& cls, const std::string& location,
+                             const std::string& object, const std::string& note)
+{
+    std::string text = "FoamFile\n{\n    version     2.0;\n    format      ";
+    text += binary ? "binary" : "ascii";
+    text += ";\n    arch        \"LSB;label=32;scalar=64\";\n    class       " + cls + ";\n    location    \"" +
+            location + "\";\n";
+    if (!note.empty()) text += "    note        \"" + note + "\";\n";
+    return text + "    object      " + object + ";\n}\n\n";
+}
+
 OpenFoamCellChecks openfoam_cell_checks(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
                                         const std::vector<int32_t>& cell_of_tet, int32_t cells,
                                         const OpenFoamCellBounds& bounds, const std::vector<char>* quad_cells)
@@ -745,11 +744,26 @@ PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& 
         w.text(out.str());
         w.finish();
     }
-    if (options.staged) {
-        for (auto& out : outputs) options.staged->push_back(std::move(out));
-    } else {
-        commit_all(outputs);
+    if (options.faces) {
+        PolyMeshFaces& out = *options.faces;
+        out = {};
+        out.owner.reserve(n_faces);
+        out.neighbour.reserve(static_cast<size_t>(counts.internal_faces));
+        const auto keep = [&](int32_t cell, int32_t across, const int32_t* points, int count) {
+            out.points.insert(out.points.end(), points, points + count);
+            out.offsets.push_back(static_cast<int32_t>(out.points.size()));
+            out.owner.push_back(cell);
+            if (across >= 0) out.neighbour.push_back(across);
+        };
+        if (options.cell_of_tet)
+            for (size_t b = 0; b < grouped.blocks(); ++b) grouped.faces(b, keep);
+        else
+            for (size_t b = 0; b < order.face_blocks(); ++b)
+                order.faces(b, [&](int32_t cell, int32_t across, const Triangle& points) {
+                    keep(cell, across, points.data(), 3);
+                });
     }
+    commit_or_stage(outputs, options.staged);
     return counts;
 }
 

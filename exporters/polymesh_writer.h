@@ -12,6 +12,13 @@
 
 namespace scalemesh {
 
+// The faces of a polyMesh in its order: face f is points[offsets[f] ..
+// offsets[f + 1]), owned by owner[f]; the first neighbour.size() faces are
+// the internal ones.
+struct PolyMeshFaces {
+    std::vector<int32_t> offsets{0}, points, owner, neighbour;
+};
+
 struct PolyMeshOptions {
     bool binary = false; // "format binary" (32-bit labels, 64-bit scalars, little-endian)
     double scale = 1.0;  // coordinates are multiplied by this: 1e-3 writes a mesh in mm as metres
@@ -37,6 +44,9 @@ struct PolyMeshOptions {
     // temporary names, for the caller to commit with its other outputs;
     // otherwise they are moved into place before returning.
     StagedOutputs* staged = nullptr;
+    // When given, filled with the faces as written (for the decomposition,
+    // write_decomposed_polymesh).
+    PolyMeshFaces* faces = nullptr;
 };
 
 struct PolyMeshCounts {
@@ -66,6 +76,12 @@ struct PolyMeshCounts {
 // order: the bytes are the same on any number of threads.
 PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& case_dir,
                               const PolyMeshOptions& options = {});
+
+// The FoamFile header of an OpenFOAM file: "binary" or "ascii" format, its
+// class, location (e.g. "constant/polyMesh") and object, and a note when
+// not empty.
+std::string foam_file_header(bool binary, const std::string& cls, const std::string& location,
+                             const std::string& object, const std::string& note = "");
 
 // Bounds below checkMesh's own limits (70 degrees of non-orthogonality,
 // skewness 4, a positive pyramid on every face of every cell), with a

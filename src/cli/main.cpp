@@ -141,6 +141,10 @@ int main(int argc, char** argv)
     std::optional<int> threads;
     run_cmd->add_option("--threads", threads,
                         "Worker threads of every parallel stage, overriding [run] threads (0: every core)");
+    std::optional<int> decompose;
+    run_cmd->add_option("--decompose", decompose,
+                        "Also write the OpenFOAM case as N processor meshes (processor0 .. processor<N-1>) for "
+                        "mpirun -np N, overriding [output] decompose");
     bool strict = false;
     run_cmd->add_flag("--strict", strict,
                       "Exit with code 6 when the mesh misses one of the case's floors (layer coverage, worst aspect "
@@ -273,7 +277,7 @@ int main(int argc, char** argv)
             log_display.emplace(verbosity == Verbosity::Verbose ? Verbosity::Verbose : Verbosity::Normal,
                                 log_file.get(), false, 6);
             const CaseResult result =
-                run_case(case_dir, both(display.listener(), log_display->listener()), threads, memory_bound);
+                run_case(case_dir, both(display.listener(), log_display->listener()), threads, memory_bound, decompose);
             const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
             // The warnings about the input (units, face labels) come first,
             // before the summary, since they may change how to read it; the

@@ -118,6 +118,13 @@ void AtomicOutput::commit()
     committed_ = true;
 }
 
+void commit_or_stage(StagedOutputs& outputs, StagedOutputs* staged)
+{
+    if (!staged) return commit_all(outputs);
+    for (auto& out : outputs) staged->push_back(std::move(out));
+    outputs.clear();
+}
+
 void commit_all(StagedOutputs& outputs)
 {
     sigset_t held, previous;

@@ -47,6 +47,10 @@ using StagedOutputs = std::vector<std::unique_ptr<AtomicOutput>>;
 // committing thread.
 void commit_all(StagedOutputs& outputs);
 
+// For a writer asked to hand its outputs over: moves them into `staged`,
+// still uncommitted, when given; commits them (commit_all) otherwise.
+void commit_or_stage(StagedOutputs& outputs, StagedOutputs* staged);
+
 // For signal handlers, on any thread: while commit_all runs, records the
 // signal for commit_all to raise again when it is done and returns true (the
 // handler then returns at once); otherwise returns false, and no commit

@@ -384,7 +384,7 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
 
     const Section output(root["output"].as_table(), "output", source,
                          {"surface", "volume", "openfoam", "openfoam_format", "layer_prisms", "msh_version",
-                          "msh_binary"});
+                          "msh_binary", "decompose"});
     // A list of output file names with one of the given extensions.
     const auto file_list = [&](const std::string& key, const std::vector<std::string>& extensions,
                                std::vector<std::string>& into) {
@@ -436,6 +436,12 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
         throw InputError(output.where("msh_version") + " must be 4.1 or 2.2",
                          "4.1 is Gmsh's current format; 2.2 is read by older tools and gmshToFoam");
     config.msh_binary = output.get<bool>("msh_binary").value_or(false);
+    const int64_t decompose = output.get<int64_t>("decompose").value_or(1);
+    // The cell count bounds it too, checked when the cells are known.
+    if (decompose < 1 || decompose > std::numeric_limits<int32_t>::max())
+        throw InputError(output.where("decompose") + " must be at least 1",
+                         "give the number of processor meshes for a parallel run, e.g. decompose = 4, or leave it out");
+    config.decompose = static_cast<int32_t>(decompose);
 
     const Section run(root["run"].as_table(), "run", source, {"threads"});
     const int64_t threads = run.get<int64_t>("threads").value_or(0);

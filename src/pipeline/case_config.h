@@ -93,6 +93,7 @@ struct CaseConfig {
     std::vector<std::string> volume_outputs{"mesh.msh"};
     bool openfoam = true;           // constant/polyMesh, system/, constant/ (and 0/ with openings)
     bool openfoam_binary = false;
+    int32_t decompose = 1;          // processor meshes for a parallel run (processor0 .. processor<N-1>); 1: none
     bool layer_prisms = true; // polyMesh: the three tets filling a layer prism as one cell (layer_prisms.h)
     double msh_version = 4.1;
     bool msh_binary = false;

@@ -505,6 +505,12 @@ std::string report_json(const CaseConfig& config, const PipelineRun& run, const 
                               {"flow_fields", result.flow_case ? "written (0/U, 0/p)"
                                                                : "not written: the mesh has no inlet and outlet"}};
     }
+    if (result.decomposition)
+        report["openfoam"]["decomposition"] = {{"processors", result.decomposition->cells.size()},
+                                               {"method", "recursive coordinate bisection (decomposeParDict: manual)"},
+                                               {"cells", result.decomposition->cells},
+                                               {"processor_faces", result.decomposition->processor_faces},
+                                               {"processor_patches", result.decomposition->processor_patches}};
     nlohmann::json files = nlohmann::json::array();
     for (const auto& p : result.written) files.push_back(std::filesystem::relative(p, config.directory).string());
     report["files"] = files;
@@ -581,7 +587,7 @@ CaseResult run_and_write(const std::filesystem::path& dir, const CaseConfig& con
 } // namespace
 
 CaseResult run_case(const std::filesystem::path& dir, const StageListener& listener, std::optional<int> threads,
-                    int64_t max_memory)
+                    int64_t max_memory, std::optional<int> decompose)
 {
     CaseConfig config = read_case(dir);
     const int64_t orphans = remove_orphaned_partials(dir);
@@ -590,6 +596,12 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
             throw InputError("--threads " + std::to_string(*threads) + " is out of range",
                              "give 0 (all cores) or a thread count");
         config.threads = *threads;
+    }
+    if (decompose) {
+        if (*decompose < 1)
+            throw InputError("--decompose " + std::to_string(*decompose) + " must be at least 1",
+                             "give the number of processor meshes for a parallel run, e.g. --decompose 4");
+        config.decompose = *decompose;
     }
     // The stages and the export in one arena of the case's threads, so that
     // --threads bounds every parallel step, the writers' included.
@@ -648,7 +660,8 @@ namespace {
 bool openfoam_output(const std::filesystem::path& relative)
 {
     const std::string first = relative.begin() == relative.end() ? "" : relative.begin()->string();
-    return first == "constant" || first == "system" || first == "0" || first == "Allrun";
+    return first == "constant" || first == "system" || first == "0" || first == "Allrun" ||
+           first.rfind("processor", 0) == 0;
 }
 
 } // namespace
@@ -753,13 +766,16 @@ CaseOutputs write_case_outputs(const CaseConfig& config, const PipelineRun& run,
                 result.tet_cells = floors;
                 for (const std::string& w : cell_floor_warnings(config, floors)) result.warnings.push_back(w);
             }
+            const bool decompose = config.decompose > 1;
+            PolyMeshFaces faces;
             const PolyMeshCounts counts =
                 write_polymesh(mesh, dir, {.binary = config.openfoam_binary, .scale = 1e-3, .patch_types = types,
                                      .adjacency = &run.volume->adjacency,
                                      .cell_of_tet = config.layer_prisms ? &cells.cell_of_tet : nullptr,
                                      .cells = cells.cells,
                                      .quad_cells = config.layer_prisms ? &cells.prism_cell : nullptr,
-                                     .staged = &pending});
+                                     .staged = &pending,
+                                     .faces = decompose ? &faces : nullptr});
             result.polymesh = counts;
             std::vector<std::string>& names = result.patch_names;
             std::vector<PatchRole> roles;
@@ -769,9 +785,17 @@ CaseOutputs write_case_outputs(const CaseConfig& config, const PipelineRun& run,
                                 : run.caps[p - 1].type == OpeningType::Inlet ? PatchRole::Inlet
                                                                                     : PatchRole::Outlet);
             }
+            if (decompose) {
+                types.resize(counts.patch_faces.size(), "wall");
+                result.decomposition = write_decomposed_polymesh(
+                    mesh.points, faces, counts.patch_faces, dir,
+                    {.processors = config.decompose, .scale = 1e-3, .patch_names = names, .patch_types = types,
+                     .staged = &pending});
+            }
             result.flow_case = write_openfoam_case(dir, names, roles,
                                                    {.kinematic_viscosity = config.viscosity,
                                                     .inlet_speed = config.inlet_speed,
+                                                    .processors = config.decompose,
                                                     .staged = &pending});
             if (!result.flow_case && !run.caps.empty()) {
                 int inlets = 0;
@@ -790,6 +814,12 @@ CaseOutputs write_case_outputs(const CaseConfig& config, const PipelineRun& run,
             result.written.push_back(dir / "system");
             if (result.flow_case) result.written.push_back(dir / "0");
             result.written.push_back(dir / "Allrun");
+            if (decompose) {
+                result.written.push_back(dir / "constant" / "cellDecomposition");
+                result.written.push_back(dir / "system" / "decomposeParDict");
+                for (int32_t i = 0; i < config.decompose; ++i)
+                    result.written.push_back(dir / ("processor" + std::to_string(i)));
+            }
         }
     }
 

@@ -3,6 +3,7 @@
 // report.json written into the case directory, each file atomically. The
 // writers (write_case_outputs) are the library's too (src/api/outputs.cpp).
 
+#include "exporters/polymesh_decompose.h"
 #include "exporters/polymesh_writer.h"
 #include "pipeline/pipeline.h"
 
@@ -31,6 +32,7 @@ struct CaseOutputs {
                                                 // not write, removed once this run's are in place
     int64_t orphaned_partials = 0;              // unfinished outputs (*.partial-PID*) of runs no longer alive, removed
     std::optional<PolyMeshCounts> polymesh;     // when the OpenFOAM case was written
+    std::optional<DecomposeCounts> decomposition; // when it was also written as processor meshes ([output] decompose)
     std::vector<std::string> patch_names;       // of the polyMesh's patches, in the order of its boundary file
     int64_t layer_prisms = 0;                   // its cells of three tets filling a layer prism
     int64_t layer_prisms_refused = 0;           // prisms filled by three tets left as tets (not star-shaped, or a
@@ -95,9 +97,10 @@ inline double intact_prism_share(const CaseResult& result) { return intact_prism
 // Throws InputError, IoError or StageError; a case that fails writes nothing.
 // `threads`, when given, overrides the case file's [run] threads;
 // `max_memory` bounds the estimated peak memory (bytes; 0: the machine's
-// physical memory, PipelineOptions::max_memory).
+// physical memory, PipelineOptions::max_memory); `decompose`, when given,
+// the case file's [output] decompose.
 CaseResult run_case(const std::filesystem::path& dir, const StageListener& listener = {},
-                    std::optional<int> threads = {}, int64_t max_memory = 0);
+                    std::optional<int> threads = {}, int64_t max_memory = 0, std::optional<int> decompose = {});
 
 // What write_case_outputs writes besides the outputs `config` lists.
 struct OutputRequest {

@@ -19,6 +19,7 @@ namespace scalemesh {
 namespace {
 
 bool have_openfoam() { return std::system("command -v simpleFoam >/dev/null 2>&1") == 0; }
+bool have_mpirun() { return std::system("command -v mpirun >/dev/null 2>&1") == 0; }
 
 std::string slurp(const std::filesystem::path& path)
 {
@@ -43,6 +44,17 @@ void copy_case(const std::string& name, const std::filesystem::path& dir, const 
     std::filesystem::create_directories(dir);
     std::ofstream(dir / "scalemesh.toml") << slurp(std::filesystem::path("cases") / name / "scalemesh.toml") << "\n"
                                           << extra;
+}
+
+// Replaces `pattern` by `replacement` in the case file in `dir`; false when
+// the pattern is not there.
+bool edit_case(const std::filesystem::path& dir, const std::string& pattern, const std::string& replacement)
+{
+    const std::string text = slurp(dir / "scalemesh.toml");
+    const std::string edited = std::regex_replace(text, std::regex(pattern), replacement);
+    if (edited == text) return false;
+    std::ofstream(dir / "scalemesh.toml") << edited;
+    return true;
 }
 
 // The latest time directory simpleFoam wrote.
@@ -90,6 +102,26 @@ std::vector<double> internal_field(const std::filesystem::path& file, int compon
     return values;
 }
 
+// The area average over `patch` of a field at the latest time, by
+// postProcess's patchAverage: one value for a scalar, three for a vector.
+std::vector<double> patch_average(const std::filesystem::path& dir, const std::string& patch, const std::string& field)
+{
+    std::string log;
+    EXPECT_EQ(openfoam("postProcess -case . -latestTime -func 'patchAverage(name=" + patch + "," + field + ")'", dir,
+                       log),
+              0)
+        << log;
+    std::smatch m;
+    if (!std::regex_search(log, m, std::regex("areaAverage\\(" + patch + "\\) of " + field + " = \\(?([^)\n]+)"))) {
+        ADD_FAILURE() << "no average of " << field << " over " << patch << " in " << log;
+        return {};
+    }
+    std::istringstream in(m[1].str());
+    std::vector<double> values;
+    for (double v; in >> v;) values.push_back(v);
+    return values;
+}
+
 TEST(SampleCaseFlow, TubePressureDropMatchesHagenPoiseuille)
 {
     if (!have_openfoam()) GTEST_SKIP() << "OpenFOAM is not installed";
@@ -104,12 +136,7 @@ TEST(SampleCaseFlow, TubePressureDropMatchesHagenPoiseuille)
     // -4.98% with the layer prisms), the discretisation's own error at 7
     // layers across, so a check there would sit on its tolerance; from
     // M = 10 on the study measures the pressure drop within 1%.
-    {
-        const std::string text = slurp(dir / "scalemesh.toml");
-        const std::string at_10 = std::regex_replace(text, std::regex(R"((^|\n)M = 7 )"), "$1M = 10 ");
-        ASSERT_NE(at_10, text) << "no M = 7 line in cases/tube/scalemesh.toml";
-        std::ofstream(dir / "scalemesh.toml") << at_10;
-    }
+    ASSERT_TRUE(edit_case(dir, R"((^|\n)M = 7 )", "$1M = 10 ")) << "no M = 7 line in cases/tube/scalemesh.toml";
     const CommandResult r = run_scalemesh({"run", dir.string(), "-q"});
     ASSERT_EQ(r.exit_code, 0) << r.err;
     std::string log;
@@ -176,6 +203,87 @@ TEST(SampleCaseFlow, BifurcationInflowEqualsTheSumOfOutflows)
                 std::abs(in - out) / in);
     EXPECT_GT(in, 0);
     EXPECT_NEAR(out, in, 1e-3 * in);
+}
+
+// [output] decompose = 2 on the tube: the two processor meshes pass
+// checkMesh -parallel, hold the serial mesh's cells (reconstructPar gives
+// back each cell's volume), and the flow solved on them with mpirun has the
+// serial solve's pressure drop and mean wall shear stress within 0.1%.
+TEST(SampleCaseFlow, TwoProcessorsGiveTheSerialCellsPressureDropAndWallShear)
+{
+    if (!have_openfoam() || !have_mpirun()) GTEST_SKIP() << "OpenFOAM or mpirun is not installed";
+    const TempDir tmp;
+    const std::filesystem::path parallel = tmp.path / "parallel", serial = tmp.path / "serial";
+    copy_case("tube", parallel, "");
+    ASSERT_TRUE(edit_case(parallel, R"((^|\n)\[output\]\n)", "$1[output]\ndecompose = 2\n"))
+        << "no [output] table in cases/tube/scalemesh.toml";
+    const CommandResult r = run_scalemesh({"run", parallel.string(), "-q"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const nlohmann::json report = nlohmann::json::parse(slurp(parallel / "report.json"));
+    const nlohmann::json& pieces = report["openfoam"]["decomposition"];
+    ASSERT_EQ(pieces["cells"].size(), 2u);
+    EXPECT_EQ(pieces["cells"][0].get<int64_t>() + pieces["cells"][1].get<int64_t>(),
+              report["openfoam"]["cells"].get<int64_t>());
+    EXPECT_GT(pieces["processor_faces"].get<int64_t>(), 0);
+
+    // The serial case: the same files but the processor meshes.
+    std::filesystem::copy(parallel, serial, std::filesystem::copy_options::recursive);
+    for (const char* piece : {"processor0", "processor1"}) {
+        ASSERT_TRUE(std::filesystem::is_directory(parallel / piece / "constant" / "polyMesh")) << piece;
+        std::filesystem::remove_all(serial / piece);
+    }
+
+    std::string log;
+    // checkMesh, checkMesh -parallel, simpleFoam -parallel and reconstructPar.
+    ASSERT_EQ(openfoam("./Allrun", parallel, log), 0) << log;
+    EXPECT_NE(slurp(parallel / "log.checkMesh.parallel").find("\nMesh OK."), std::string::npos);
+    EXPECT_NE(slurp(parallel / "log.simpleFoam.parallel").find("SIMPLE solution converged"), std::string::npos);
+    ASSERT_EQ(openfoam("simpleFoam -case .", serial, log), 0) << log;
+    EXPECT_NE(log.find("SIMPLE solution converged"), std::string::npos);
+
+    // Each piece's cell volumes, as the pieces measure them, mapped back.
+    const std::string mpirun = "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 "
+                               "OMPI_MCA_rmaps_base_oversubscribe=1 mpirun -np 2 ";
+    ASSERT_EQ(openfoam(mpirun + "postProcess -parallel -case . -latestTime -func writeCellVolumes", parallel, log), 0)
+        << log;
+    ASSERT_EQ(openfoam("reconstructPar -case . -latestTime -fields '(V)'", parallel, log), 0) << log;
+    ASSERT_EQ(openfoam("postProcess -case . -latestTime -func writeCellVolumes", serial, log), 0) << log;
+    const std::vector<double> v_parallel = internal_field(latest_time(parallel) / "V", 1);
+    const std::vector<double> v_serial = internal_field(latest_time(serial) / "V", 1);
+    ASSERT_EQ(v_parallel.size(), v_serial.size());
+    ASSERT_EQ(static_cast<int64_t>(v_serial.size()), report["openfoam"]["cells"].get<int64_t>());
+    double total_parallel = 0, total_serial = 0;
+    size_t differing = 0;
+    for (size_t c = 0; c < v_serial.size(); ++c) {
+        // Eight significant digits (controlDict writePrecision).
+        differing += std::abs(v_parallel[c] - v_serial[c]) > 1e-7 * std::abs(v_serial[c]);
+        total_parallel += v_parallel[c], total_serial += v_serial[c];
+    }
+    EXPECT_EQ(differing, 0u);
+    EXPECT_NEAR(total_parallel, total_serial, 1e-7 * total_serial);
+
+    // The pressure drop (inlet minus outlet, area-averaged) and the mean wall
+    // shear stress of each solution (the parallel one as reconstructPar put it back).
+    const auto flow = [&](const std::filesystem::path& dir) {
+        std::string out;
+        EXPECT_EQ(openfoam("simpleFoam -case . -postProcess -latestTime -func wallShearStress", dir, out), 0) << out;
+        const std::vector<double> in = patch_average(dir, "inlet", "p"), outlet = patch_average(dir, "outlet", "p");
+        const std::vector<double> wss = patch_average(dir, "wall", "wallShearStress");
+        EXPECT_EQ(in.size(), 1u);
+        EXPECT_EQ(outlet.size(), 1u);
+        EXPECT_EQ(wss.size(), 3u);
+        if (in.size() != 1 || outlet.size() != 1 || wss.size() != 3) return std::pair<double, double>(NAN, NAN);
+        return std::pair<double, double>(in[0] - outlet[0], std::hypot(wss[0], wss[1], wss[2]));
+    };
+    const auto [dp_parallel, wss_parallel] = flow(parallel);
+    const auto [dp_serial, wss_serial] = flow(serial);
+    std::printf("tube on 2 processors: pressure drop %g (serial %g, ratio %.6f), mean wall shear stress %g (serial %g, "
+                "ratio %.6f) m^2/s^2\n",
+                dp_parallel, dp_serial, dp_parallel / dp_serial, wss_parallel, wss_serial, wss_parallel / wss_serial);
+    EXPECT_GT(dp_serial, 0);
+    EXPECT_GT(wss_serial, 0);
+    EXPECT_NEAR(dp_parallel / dp_serial, 1.0, 1e-3);
+    EXPECT_NEAR(wss_parallel / wss_serial, 1.0, 1e-3);
 }
 
 } // namespace

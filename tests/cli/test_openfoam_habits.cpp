@@ -147,6 +147,50 @@ TEST(CliOpenFoam, AllrunChecksTheMeshAndRunsTheFlow)
     EXPECT_FALSE(std::filesystem::exists(dir / "log.simpleFoam"));
 }
 
+TEST(CliOpenFoam, DecomposeIsCheckedAndNothingIsWrittenForABadOne)
+{
+    const TempDir tmp;
+    for (const auto& [value, says] : {std::pair<std::string, std::string>{"0", "must be at least 1"},
+                                      {"-3", "must be at least 1"},
+                                      {"2.5", "must be a whole number"},
+                                      {"\"2\"", "must be a whole number"}}) {
+        const auto dir = make_case(tmp, "bad", std::string(kTube) + "[output]\ndecompose = " + value + "\n");
+        const CommandResult r = run_scalemesh({"run", dir.string(), "-q"});
+        EXPECT_EQ(r.exit_code, 2) << value << ": " << r.err;
+        EXPECT_NE(r.err.find("decompose"), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find(says), std::string::npos) << r.err;
+        EXPECT_FALSE(std::filesystem::exists(dir / "report.json"));
+    }
+    const auto dir = make_case(tmp, "tube", kTube);
+    for (const char* value : {"0", "two"}) {
+        const CommandResult r = run_scalemesh({"run", dir.string(), "-q", "--decompose", value});
+        EXPECT_NE(r.exit_code, 0) << value;
+        EXPECT_NE(r.err.find("--decompose"), std::string::npos) << r.err;
+    }
+    // More pieces than cells: found once the cells are known, and the run
+    // writes nothing.
+    const CommandResult many = run_scalemesh({"run", dir.string(), "-q", "--decompose", "10000000"});
+    EXPECT_EQ(many.exit_code, 2) << many.err;
+    EXPECT_NE(many.err.find("more processor meshes than the"), std::string::npos) << many.err;
+    EXPECT_EQ(std::count(many.err.begin(), many.err.end(), '\n'), 1) << many.err;
+    for (const char* name : {"report.json", "processor0", "constant", "mesh.msh"})
+        EXPECT_FALSE(std::filesystem::exists(dir / name)) << name;
+
+    // Three pieces, then two (processor2 goes), then none (all go, and
+    // Allrun is the serial one again).
+    ASSERT_EQ(run_scalemesh({"run", dir.string(), "-q", "--decompose", "3"}).exit_code, 0);
+    EXPECT_TRUE(std::filesystem::exists(dir / "processor2" / "constant" / "polyMesh" / "faceProcAddressing"));
+    EXPECT_TRUE(std::filesystem::exists(dir / "processor2" / "0" / "U"));
+    EXPECT_NE(slurp(dir / "Allrun").find("mpirun -np \"$processors\" \"$1\" -parallel"), std::string::npos);
+    ASSERT_EQ(run_scalemesh({"run", dir.string(), "-q", "--decompose", "2"}).exit_code, 0);
+    EXPECT_TRUE(std::filesystem::exists(dir / "processor1"));
+    EXPECT_FALSE(std::filesystem::exists(dir / "processor2"));
+    ASSERT_EQ(run_scalemesh({"run", dir.string(), "-q"}).exit_code, 0);
+    for (const char* name : {"processor0", "processor1", "constant/cellDecomposition", "system/decomposeParDict"})
+        EXPECT_FALSE(std::filesystem::exists(dir / name)) << name;
+    EXPECT_EQ(slurp(dir / "Allrun").find("mpirun"), std::string::npos);
+}
+
 TEST(CliOpenFoam, AllrunWithoutOpeningsOnlyChecksTheMesh)
 {
     const TempDir tmp;
