@@ -108,7 +108,14 @@ prun checkMesh
 grep -q "^Mesh OK\." log.checkMesh.parallel ||
     fail "checkMesh -parallel found a failed mesh check; see $PWD/log.checkMesh.parallel" log.checkMesh.parallel
 )SH";
-    if (flow) text += "prun simpleFoam\nrun reconstructPar\n";
+    if (flow)
+        text += R"SH(# An earlier solve's times in the pieces belong to the mesh of an earlier run:
+# reconstructPar would read them with this mesh's addressing.
+find processor*/ -mindepth 1 -maxdepth 1 -type d -regextype posix-extended -regex '.*/[0-9][0-9.eE+-]*' \
+    ! -name 0 -exec rm -rf {} +
+prun simpleFoam
+run reconstructPar
+)SH";
     return text;
 }
 

@@ -269,7 +269,8 @@ MeshResult mesh_image(const std::filesystem::path& path, const MeshOptions& opti
 // whose ITK (LPS) origin and directions are these). ImageOptions as for a
 // file (labels, threshold, level_set, iso, connectivity); grid and units,
 // which name parts of files, must be left empty and "mm". No process-wide
-// effect. Throws InputError for a null data pointer, a size below 1 voxel
+// effect, but with layers = "prisms" and no host_gmsh_session the core is
+// meshed in a Gmsh session of its own (initialised and finalised here). Throws InputError for a null data pointer, a size below 1 voxel
 // along an axis, more than 2^31 voxels, a non-positive or non-finite
 // spacing, a non-finite origin, NaN or infinite values, no voxel inside (as
 // for a file), and as mesh_surface for the options; StageError as

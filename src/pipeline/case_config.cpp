@@ -438,10 +438,17 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
     config.msh_binary = output.get<bool>("msh_binary").value_or(false);
     const int64_t decompose = output.get<int64_t>("decompose").value_or(1);
     // The cell count bounds it too, checked when the cells are known.
-    if (decompose < 1 || decompose > std::numeric_limits<int32_t>::max())
+    if (decompose < 1)
         throw InputError(output.where("decompose") + " must be at least 1",
                          "give the number of processor meshes for a parallel run, e.g. decompose = 4, or leave it out");
+    if (decompose > std::numeric_limits<int32_t>::max())
+        throw InputError(output.where("decompose") + " is more processor meshes than a mesh can have cells",
+                         "give the number of processor meshes for a parallel run, e.g. decompose = 4");
     config.decompose = static_cast<int32_t>(decompose);
+    if (config.decompose > 1 && !config.openfoam)
+        throw InputError(output.where("decompose") + " asks for processor meshes, but openfoam = false writes no "
+                                                     "OpenFOAM case",
+                         "set openfoam = true, or leave decompose out");
 
     const Section run(root["run"].as_table(), "run", source, {"threads"});
     const int64_t threads = run.get<int64_t>("threads").value_or(0);

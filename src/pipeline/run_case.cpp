@@ -602,6 +602,11 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
             throw InputError("--decompose " + std::to_string(*decompose) + " must be at least 1",
                              "give the number of processor meshes for a parallel run, e.g. --decompose 4");
         config.decompose = *decompose;
+        if (config.decompose > 1 && !config.openfoam)
+            throw InputError("--decompose " + std::to_string(*decompose) +
+                                 " asks for processor meshes, but the case's [output] openfoam = false writes no "
+                                 "OpenFOAM case",
+                             "set openfoam = true in the case file, or leave --decompose out");
     }
     // The stages and the export in one arena of the case's threads, so that
     // --threads bounds every parallel step, the writers' included.

@@ -423,11 +423,13 @@ scalemesh::ImageView image_view(const py::handle& image, py::object& keep)
                              " values, which are not read. Hint: give bool, uint8, int8, uint16, int16, uint32, "
                              "int32, uint64, int64, float32 or float64 (e.g. vol.astype(numpy.float32))");
     if (!dtype.attr("isnative").cast<bool>()) array = array.attr("astype")(dtype.attr("newbyteorder")("="));
-    for (int d = 0; d < 3; ++d)
-        if (array.strides(d) % array.itemsize() != 0) {
-            array = py::module_::import("numpy").attr("ascontiguousarray")(array);
-            break;
-        }
+    // Read in place unless a stride is not a whole number of items, the
+    // buffer is misaligned, or every stride is 0 (a broadcast scalar, which
+    // ImageView would take for the packed layout): then a packed copy.
+    bool copy = !array.attr("flags").attr("aligned").cast<bool>() ||
+                (array.strides(0) == 0 && array.strides(1) == 0 && array.strides(2) == 0 && array.size() > 1);
+    for (int d = 0; d < 3; ++d) copy = copy || array.strides(d) % array.itemsize() != 0;
+    if (copy) array = py::module_::import("numpy").attr("ascontiguousarray")(array);
     scalemesh::ImageView view;
     view.data = array.data();
     view.type = *type;

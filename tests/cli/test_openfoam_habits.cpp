@@ -161,6 +161,19 @@ TEST(CliOpenFoam, DecomposeIsCheckedAndNothingIsWrittenForABadOne)
         EXPECT_NE(r.err.find(says), std::string::npos) << r.err;
         EXPECT_FALSE(std::filesystem::exists(dir / "report.json"));
     }
+    // Pieces of a case that writes no OpenFOAM case: refused, in the file
+    // and on the command line.
+    const auto no_openfoam =
+        make_case(tmp, "no_openfoam", std::string(kTube) + "[output]\nopenfoam = false\ndecompose = 2\n");
+    const CommandResult in_file = run_scalemesh({"run", no_openfoam.string(), "-q"});
+    EXPECT_EQ(in_file.exit_code, 2) << in_file.err;
+    EXPECT_NE(in_file.err.find("openfoam = false writes no OpenFOAM case"), std::string::npos) << in_file.err;
+    const auto flag_only = make_case(tmp, "flag_only", std::string(kTube) + "[output]\nopenfoam = false\n");
+    const CommandResult on_line = run_scalemesh({"run", flag_only.string(), "-q", "--decompose", "2"});
+    EXPECT_EQ(on_line.exit_code, 2) << on_line.err;
+    EXPECT_NE(on_line.err.find("--decompose 2 asks for processor meshes"), std::string::npos) << on_line.err;
+    for (const auto& d : {no_openfoam, flag_only}) EXPECT_FALSE(std::filesystem::exists(d / "report.json"));
+
     const auto dir = make_case(tmp, "tube", kTube);
     for (const char* value : {"0", "two"}) {
         const CommandResult r = run_scalemesh({"run", dir.string(), "-q", "--decompose", value});

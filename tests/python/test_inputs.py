@@ -115,6 +115,28 @@ class TestMeshImageArray(unittest.TestCase):
                     scalemesh.mesh_image(view, spacing=SPACING, origin=ORIGIN, threads=2)["points"],
                     scalemesh.mesh_image(view.copy(), spacing=SPACING, origin=ORIGIN, threads=2)["points"])
 
+    def test_broadcast_and_misaligned_arrays_mesh_as_their_copies(self):
+        # A view whose strides are all 0 (one voxel broadcast) and one whose
+        # data starts one byte into its buffer: read as their packed copies.
+        def outcome(vol):
+            try:
+                return "meshed", scalemesh.mesh_image(vol, spacing=SPACING, threads=2)["points"].tobytes()
+            except ValueError as e:
+                return "refused", str(e)
+
+        everywhere = np.broadcast_to(np.uint8(1), (8, 8, 8))
+        self.assertEqual(everywhere.strides, (0, 0, 0))
+        self.assertEqual(outcome(everywhere), outcome(everywhere.copy()))
+        ball = np.zeros((12, 12, 12), dtype=np.uint8)
+        ball[3:9, 3:9, 3:9] = 1
+        raw = bytearray(1 + 2 * ball.size)
+        raw[1:] = ball.astype("<i2").tobytes()
+        misaligned = np.frombuffer(bytes(raw), dtype="<i2", offset=1).reshape(ball.shape)
+        self.assertFalse(misaligned.flags.aligned)
+        first = outcome(misaligned)
+        self.assertEqual(first[0], "meshed")
+        self.assertEqual(first, outcome(ball))
+
     def test_labels_threshold_and_level_set_read_as_for_a_file(self):
         # Label 2 is the ellipsoid's x > centre half, label 1 the rest of it.
         labelled = self.vol.astype(np.int32)
