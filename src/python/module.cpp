@@ -72,8 +72,9 @@ const char* const option_names[] = {"K", "M", "G", "L_min", "L_max", "curvature"
 const char* const opening_keys[] = {"name",   "type",  "point", "normal", "radius",
                                     "border", "inset", "near",  "label",  "extension"};
 
-// A value of openings[i][key], converted, or a TypeError naming it.
-template <class T> T opening_value(const std::string& where, const py::handle& value, const char* expected)
+// A value converted to T, or a TypeError naming where it was given (an
+// openings entry's key, an option).
+template <class T> T checked_cast(const std::string& where, const py::handle& value, const char* expected)
 {
     try {
         return value.cast<T>();
@@ -105,14 +106,14 @@ scalemesh::MeshOpening opening_option(size_t index, const py::handle& item)
         const std::string key = py::str(key_handle);
         const std::string where = at + "['" + key + "']";
         if (value.is_none()) continue; // as if not given
-        if (key == "name") o.name = opening_value<std::string>(where, value, "a string");
-        else if (key == "type") o.type = opening_value<std::string>(where, value, "a string (\"inlet\" or \"outlet\")");
+        if (key == "name") o.name = checked_cast<std::string>(where, value, "a string");
+        else if (key == "type") o.type = checked_cast<std::string>(where, value, "a string (\"inlet\" or \"outlet\")");
         else if (key == "point") o.point = opening_vector(where, value);
         else if (key == "normal") o.normal = opening_vector(where, value);
         else if (key == "near") o.near = opening_vector(where, value);
-        else if (key == "radius") o.radius = opening_value<double>(where, value, "a number (mm)");
-        else if (key == "extension") o.extension = opening_value<double>(where, value, "a number (cap diameters)");
-        else if (key == "border") o.border = opening_value<std::string>(where, value, "a string (\"x-\" ... \"z+\")");
+        else if (key == "radius") o.radius = checked_cast<double>(where, value, "a number (mm)");
+        else if (key == "extension") o.extension = checked_cast<double>(where, value, "a number (cap diameters)");
+        else if (key == "border") o.border = checked_cast<std::string>(where, value, "a string (\"x-\" ... \"z+\")");
         else if (key == "inset") {
             if (!(py::isinstance<py::str>(value) && value.cast<std::string>() == "auto"))
                 o.inset = length_option(where.c_str(), value);
@@ -140,47 +141,54 @@ MeshOptions mesh_options(const py::kwargs& kwargs)
     MeshOptions o;
     for (const auto& [key_handle, value] : kwargs) {
         const std::string key = key_handle.cast<std::string>();
-        if (key == "K") o.K = value.cast<double>();
-        else if (key == "M") o.M = value.cast<double>();
-        else if (key == "G") o.G = value.cast<double>();
-        else if (key == "L_min") o.L_min = length_option("L_min", value);
-        else if (key == "L_max") {
-            if (value.is_none()) o.L_max.reset();
-            else o.L_max = length_option("L_max", value);
-        } else if (key == "curvature") o.curvature = value.cast<bool>();
-        else if (key == "smoothing_sweeps") o.smoothing_sweeps = value.cast<int>();
-        else if (key == "smoothing_omega") o.smoothing_omega = value.cast<double>();
-        else if (key == "smoothing_reach") o.smoothing_reach = length_option("smoothing_reach", value);
-        else if (key == "remesh_cycles") o.remesh_cycles = value.cast<int>();
-        else if (key == "growth") o.growth = value.cast<double>();
-        else if (key == "first_layer") o.first_layer = value.cast<std::string>();
-        else if (key == "layers") o.layers = value.cast<std::string>();
-        else if (key == "layer_tolerance") o.layer_tolerance = value.cast<double>();
-        else if (key == "threads") o.threads = value.cast<int>();
-        else if (key == "max_memory") o.max_memory = value.cast<std::int64_t>();
-        else if (key == "gmsh_session") o.host_gmsh_session = value.cast<bool>();
-        else if (key == "openings") {
-            if (!value.is_none()) {
-                if (py::isinstance<py::dict>(value) || py::isinstance<py::str>(value) ||
-                    !py::isinstance<py::sequence>(value))
-                    throw py::type_error("openings is not a list of dicts. Hint: give openings=[{\"name\": "
-                                         "\"inlet\", \"type\": \"inlet\", ...}, ...]");
-                const py::sequence items = value.cast<py::sequence>();
-                for (size_t i = 0; i < items.size(); ++i) o.openings.push_back(opening_option(i, items[i]));
+        try {
+            if (key == "K") o.K = value.cast<double>();
+            else if (key == "M") o.M = value.cast<double>();
+            else if (key == "G") o.G = value.cast<double>();
+            else if (key == "L_min") o.L_min = length_option("L_min", value);
+            else if (key == "L_max") {
+                if (value.is_none()) o.L_max.reset();
+                else o.L_max = length_option("L_max", value);
+            } else if (key == "curvature") o.curvature = value.cast<bool>();
+            else if (key == "smoothing_sweeps") o.smoothing_sweeps = value.cast<int>();
+            else if (key == "smoothing_omega") o.smoothing_omega = value.cast<double>();
+            else if (key == "smoothing_reach") o.smoothing_reach = length_option("smoothing_reach", value);
+            else if (key == "remesh_cycles") o.remesh_cycles = value.cast<int>();
+            else if (key == "growth") o.growth = value.cast<double>();
+            else if (key == "first_layer") o.first_layer = value.cast<std::string>();
+            else if (key == "layers") o.layers = value.cast<std::string>();
+            else if (key == "layer_tolerance") o.layer_tolerance = value.cast<double>();
+            else if (key == "threads") o.threads = value.cast<int>();
+            else if (key == "max_memory") o.max_memory = value.cast<std::int64_t>();
+            else if (key == "gmsh_session") o.host_gmsh_session = value.cast<bool>();
+            else if (key == "openings") {
+                if (!value.is_none()) {
+                    if (py::isinstance<py::dict>(value) || py::isinstance<py::str>(value) ||
+                        !py::isinstance<py::sequence>(value))
+                        throw py::type_error("openings is not a list of dicts. Hint: give openings=[{\"name\": "
+                                             "\"inlet\", \"type\": \"inlet\", ...}, ...]");
+                    const py::sequence items = value.cast<py::sequence>();
+                    for (size_t i = 0; i < items.size(); ++i) o.openings.push_back(opening_option(i, items[i]));
+                }
+            } else if (key == "progress") {
+                if (!value.is_none()) {
+                    auto callback = value.cast<std::function<void(const std::string&, double, const std::string&)>>();
+                    // Called on the calling thread, whose GIL is released during the run.
+                    o.progress = [callback](const std::string& stage, double seconds, const std::string& summary) {
+                        py::gil_scoped_acquire gil;
+                        callback(stage, seconds, summary);
+                    };
+                }
+            } else {
+                std::string names;
+                for (const char* name : option_names) names += std::string(names.empty() ? "" : ", ") + name;
+                throw py::type_error("unexpected keyword argument '" + key + "'; the options are: " + names);
             }
-        } else if (key == "progress") {
-            if (!value.is_none()) {
-                auto callback = value.cast<std::function<void(const std::string&, double, const std::string&)>>();
-                // Called on the calling thread, whose GIL is released during the run.
-                o.progress = [callback](const std::string& stage, double seconds, const std::string& summary) {
-                    py::gil_scoped_acquire gil;
-                    callback(stage, seconds, summary);
-                };
-            }
-        } else {
-            std::string names;
-            for (const char* name : option_names) names += std::string(names.empty() ? "" : ", ") + name;
-            throw py::type_error("unexpected keyword argument '" + key + "'; the options are: " + names);
+        } catch (const py::cast_error&) {
+            // A value of another type (a string for a number, say): one
+            // TypeError naming the option, as for every other bad option.
+            throw py::type_error(key + " = " + py::repr(value).cast<std::string>() +
+                                 " is not of the option's type. Hint: see help(scalemesh) for each option's type");
         }
     }
     return o;
@@ -462,11 +470,11 @@ scalemesh::ImageOptions image_options(const py::handle& labels, const py::handle
             throw py::value_error("labels is empty. Hint: give the label values that are inside, or None for "
                                   "every nonzero voxel");
     }
-    if (!threshold.is_none()) how.threshold = threshold.cast<double>();
+    if (!threshold.is_none()) how.threshold = checked_cast<double>("threshold", threshold, "a number");
     how.level_set = level_set;
-    if (!iso.is_none()) how.iso = iso.cast<double>();
+    if (!iso.is_none()) how.iso = checked_cast<double>("iso", iso, "a number");
     how.connectivity = connectivity;
-    if (!grid.is_none()) how.grid = grid.cast<std::string>();
+    if (!grid.is_none()) how.grid = checked_cast<std::string>("grid", grid, "a string (the grid's name)");
     how.units = units;
     return how;
 }

@@ -167,6 +167,8 @@ class TestMeshImageArray(unittest.TestCase):
             (TypeError, "holds complex128 values", lambda: vol.astype(complex)),
             (ValueError, "needs its spacing. Hint: give spacing=", lambda: vol, {"spacing": None}),
             (ValueError, "NaN or infinite voxel values", lambda: np.where(vol > 0, np.nan, 0.0)),
+            (TypeError, "^threshold is str, not a number", lambda: vol, {"threshold": "half"}),
+            (TypeError, "^iso is list, not a number", lambda: vol, {"iso": [0.5]}),
         ]
         for case in cases:
             error, message, make = case[:3]

@@ -300,6 +300,12 @@ class TestMeshSurface(GmshSession):
             scalemesh.mesh_surface(points, triangles, grwth=1.2)
         with self.assertRaisesRegex(ValueError, "is not a length"):
             scalemesh.mesh_surface(points, triangles, L_min="two")
+        # A value of another type: a TypeError naming the option, not
+        # pybind11's RuntimeError.
+        with self.assertRaisesRegex(TypeError, "^M = 'seven' is not of the option's type"):
+            scalemesh.mesh_surface(points, triangles, M="seven")
+        with self.assertRaisesRegex(TypeError, "^curvature = 'yes' is not of the option's type"):
+            scalemesh.mesh_surface(points, triangles, curvature="yes")
         stages = []
         scalemesh.mesh_surface(points, triangles, M=5, L_min="0.5 voxels", threads=2,
                                progress=lambda stage, seconds, summary: stages.append((stage, seconds)))
