@@ -7,6 +7,9 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <string>
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -37,6 +40,34 @@ int64_t peak_resident_memory()
     rusage usage{};
     ::getrusage(RUSAGE_SELF, &usage);
     return static_cast<int64_t>(usage.ru_maxrss) * 1024; // Linux reports kB
+}
+
+std::optional<ResidentMemory> resident_memory()
+{
+    std::ifstream in("/proc/self/status");
+    std::optional<int64_t> peak, now;
+    for (std::string line; std::getline(in, line);) {
+        const auto kib = [&](const char* key) -> std::optional<int64_t> {
+            if (line.rfind(key, 0) != 0) return std::nullopt;
+            int64_t value = 0;
+            const char* first = line.c_str() + std::strlen(key);
+            while (*first == ' ' || *first == '\t') ++first;
+            if (std::from_chars(first, line.c_str() + line.size(), value).ec != std::errc()) return std::nullopt;
+            return value * 1024;
+        };
+        if (const auto v = kib("VmHWM:")) peak = v;
+        if (const auto v = kib("VmRSS:")) now = v;
+    }
+    if (!peak || !now) return std::nullopt;
+    return ResidentMemory{*peak, *now};
+}
+
+bool reset_peak_resident_memory()
+{
+    std::ofstream out("/proc/self/clear_refs");
+    out << "5";
+    out.flush();
+    return bool(out);
 }
 
 int64_t parse_memory_size(const std::string& text, const std::string& what)

@@ -12,6 +12,7 @@
 #include "sizing/feature_size.h"
 
 #include <cstdint>
+#include <optional>
 #include <string>
 
 namespace scalemesh {
@@ -29,6 +30,20 @@ int64_t physical_memory();
 
 // Peak resident memory of this process so far, bytes (getrusage).
 int64_t peak_resident_memory();
+
+// The process's peak and current resident set (bytes) from
+// /proc/self/status (VmHWM, VmRSS); nullopt where it cannot be read.
+struct ResidentMemory {
+    int64_t peak_bytes = 0;
+    int64_t now_bytes = 0;
+};
+std::optional<ResidentMemory> resident_memory();
+
+// Resets the process's peak resident set to its current one (Linux's
+// /proc/self/clear_refs, "5"), so that the next resident_memory() peak is
+// the peak since now. A process-wide effect (getrusage's peak is reset
+// too): only for a run that owns its process. False where it cannot.
+bool reset_peak_resident_memory();
 
 // "8G", "512M", "1.5 GB", "300MiB", "2000000000": bytes (K, M, G, T are
 // powers of 1024). Throws InputError naming `what` for anything else.

@@ -32,6 +32,14 @@ struct StageTime {
 // Called when a stage starts (seconds < 0) and when it ends.
 using StageListener = std::function<void(const StageTime&)>;
 
+// The memory of one stage of a run that owns its process (scalemesh run):
+// the peak resident set while it ran and the resident set when it ended.
+struct StageMemory {
+    std::string stage;
+    int64_t peak_bytes = 0;
+    int64_t resident_after_bytes = 0;
+};
+
 struct PipelineRun {
     std::string input;            // what was read: a path or "phantom:<shape>"
     std::string input_checksum;   // FNV-1a 64 of the input file's bytes, hex; empty for phantoms
@@ -75,6 +83,7 @@ struct PipelineRun {
     int64_t memory_bound = 0;               // bytes the run was allowed (PipelineOptions::max_memory resolved)
     double memory_estimate_remeshing = 0;   // bytes, peak estimated before remeshing (0: not estimated)
     double memory_estimate_volume = 0;      // bytes, peak estimated before the (last) volume stage
+    std::vector<StageMemory> stage_memory;  // per stage, in order (scalemesh run on Linux; empty elsewhere)
 };
 
 struct PipelineOptions {

@@ -519,11 +519,27 @@ std::string report_json(const CaseConfig& config, const PipelineRun& run, const 
     report["removed"] = removed;
     report["removed_partial_files"] = result.orphaned_partials;
     // The estimates of pipeline/memory_estimate.h beside the measured peak
-    // (so far: the outputs are written, report.json is last).
+    // (so far: the outputs are written, report.json is last). The process's
+    // peak is reset at each stage's start, so the run's peak is the largest
+    // of the stages' and of the peak since the last stage.
+    int64_t measured_peak = peak_resident_memory();
+    for (const StageMemory& m : run.stage_memory) measured_peak = std::max(measured_peak, m.peak_bytes);
     report["memory"] = {{"bound_bytes", run.memory_bound},
                         {"estimated_peak_bytes_before_remeshing", run.memory_estimate_remeshing},
                         {"estimated_peak_bytes_before_volume", run.memory_estimate_volume},
-                        {"measured_peak_bytes", peak_resident_memory()}};
+                        {"measured_peak_bytes", measured_peak}};
+    // Per stage (scalemesh run on Linux): its peak, what it left resident,
+    // and that per tet of the final mesh.
+    nlohmann::json stage_memory = nlohmann::json::array();
+    const int64_t tets = run.volume ? static_cast<int64_t>(run.volume->mesh.tets.size()) : 0;
+    for (const StageMemory& m : run.stage_memory) {
+        nlohmann::json entry = {{"stage", m.stage},
+                                {"peak_bytes", m.peak_bytes},
+                                {"resident_after_bytes", m.resident_after_bytes}};
+        if (tets > 0) entry["resident_after_bytes_per_tet"] = double(m.resident_after_bytes) / double(tets);
+        stage_memory.push_back(entry);
+    }
+    report["memory"]["stages"] = stage_memory;
     report["warnings"] = result.warnings;
     return report.dump(2) + "\n";
 }
@@ -621,9 +637,21 @@ CaseResult run_and_write(const std::filesystem::path& dir, const CaseConfig& con
 {
     CaseResult result;
     const bool volume = config.volume && config.remesh_cycles > 0;
+    // The memory of each stage: the process's peak reset as a stage starts
+    // (the run owns its process), read as it ends.
+    std::vector<StageMemory> stage_memory;
+    const bool measure = reset_peak_resident_memory() && resident_memory();
+    const auto measured = [&](const StageTime& stage) {
+        if (measure && stage.seconds < 0) reset_peak_resident_memory();
+        if (measure && stage.seconds >= 0)
+            if (const auto memory = resident_memory())
+                stage_memory.push_back({stage.name, memory->peak_bytes, memory->now_bytes});
+        if (listener) listener(stage);
+    };
     result.run = run_pipeline(
         config, {.sizing = true, .remesh = config.remesh_cycles > 0, .volume = volume, .max_memory = max_memory},
-        listener);
+        measured);
+    result.run.stage_memory = std::move(stage_memory);
     CaseConfig at = config;
     at.directory = dir;
     static_cast<CaseOutputs&>(result) = write_case_outputs(at, result.run, {.orphaned_partials = orphans});

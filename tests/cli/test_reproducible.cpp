@@ -34,7 +34,8 @@ void drop_measurements(nlohmann::json& j)
 {
     if (j.is_object()) {
         for (auto it = j.begin(); it != j.end();) {
-            if (it.key().rfind("seconds", 0) == 0 || it.key() == "measured_peak_bytes") {
+            if (it.key().rfind("seconds", 0) == 0 || it.key() == "measured_peak_bytes" || it.key() == "peak_bytes" ||
+                it.key().rfind("resident_after_bytes", 0) == 0) {
                 it = j.erase(it);
             } else {
                 drop_measurements(it.value());
@@ -47,8 +48,9 @@ void drop_measurements(nlohmann::json& j)
 }
 
 // Every file under `dir` except the case file and the run's log (stage
-// times), by relative path. report.json is kept without its times and peak
-// memory, which differ between runs, and without the thread count.
+// times), by relative path. report.json is kept without its times and
+// memory (the run's and each stage's), which differ between runs, and without
+// the thread count.
 std::map<std::string, std::string> outputs(const std::filesystem::path& dir)
 {
     std::map<std::string, std::string> files;

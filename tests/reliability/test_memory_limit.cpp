@@ -8,10 +8,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <clocale>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <string>
+#include <vector>
 
 namespace scalemesh {
 namespace {
@@ -136,6 +139,45 @@ TEST(MemoryLimit, EstimatesWithinAFactorOfTwoOfTheMeasuredPeak)
         EXPECT_GT(estimate, measured / 2) << key;
         EXPECT_LT(estimate, measured * 2) << key;
     }
+    // Each stage's memory, in the order of the report's stages: its peak at
+    // least what it left resident, the run's peak the largest of them.
+    const nlohmann::json report = nlohmann::json::parse(std::ifstream(dir.path / "report.json"));
+    const nlohmann::json& stages = memory["stages"];
+    ASSERT_EQ(stages.size(), report["stages"].size());
+    int64_t largest = 0;
+    for (size_t i = 0; i < stages.size(); ++i) {
+        EXPECT_EQ(stages[i]["stage"], report["stages"][i]["stage"]);
+        const int64_t peak = stages[i]["peak_bytes"], resident = stages[i]["resident_after_bytes"];
+        EXPECT_GT(resident, 0) << stages[i];
+        EXPECT_GE(peak, resident) << stages[i];
+        EXPECT_GT(stages[i]["resident_after_bytes_per_tet"].get<double>(), 0) << stages[i];
+        largest = std::max(largest, peak);
+    }
+    EXPECT_GE(measured, double(largest));
+}
+
+// The peak resident set, reset: a 256 MiB block touched and freed leaves
+// the peak at least 256 MiB above what is resident; after the reset the peak
+// is what is resident again, and getrusage's peak (the report's
+// measured_peak_bytes) with it.
+TEST(MemoryLimit, APeakResetForgetsWhatWasFreed)
+{
+    const auto before = resident_memory();
+    ASSERT_TRUE(before);
+    const size_t size = size_t(256) << 20;
+    {
+        std::vector<char> block(size);
+        volatile char* page = block.data(); // every page written, not optimised away
+        for (size_t i = 0; i < size; i += 4096) page[i] = 1;
+    }
+    const auto held = resident_memory();
+    ASSERT_TRUE(held);
+    EXPECT_GE(held->peak_bytes, before->now_bytes + int64_t(size) * 9 / 10);
+    ASSERT_TRUE(reset_peak_resident_memory());
+    const auto after = resident_memory();
+    ASSERT_TRUE(after);
+    EXPECT_LT(after->peak_bytes, held->peak_bytes - int64_t(size) / 2);
+    EXPECT_LT(peak_resident_memory(), held->peak_bytes - int64_t(size) / 2);
 }
 
 } // namespace
