@@ -44,6 +44,7 @@ using improvement::shape_of;
 using improvement::Shape;
 using improvement::ShapeOrder;
 using improvement::shared_face_cosine;
+using improvement::CellCentres;
 using improvement::split_at;
 using improvement::TetEditor;
 using improvement::with_cosine;
@@ -653,7 +654,8 @@ private:
     double cosine(int32_t t, int32_t u) const
     {
         const auto at = [&](int32_t v) -> const Vec3& { return ed_.point(v); };
-        return ed_.locked(t) && ed_.locked(u) ? 1.0 : shared_face_cosine(at, ed_.tet(t), ed_.tet(u));
+        if (ed_.locked(t) && ed_.locked(u) && !ed_.centres) return 1.0;
+        return shared_face_cosine(at, ed_.tet(t), ed_.tet(u), ed_.centres);
     }
     static bool in_order(const Target& a, const Target& b) { return a.t != b.t ? a.t < b.t : a.k < b.k; }
 
@@ -734,6 +736,17 @@ public:
     PartPasses(Part& part, const std::vector<LayerBound>& layers, const CellPassParams& params, Passes passes)
         : ed_(part.mesh, part.read_only), log_(ed_)
     {
+        if (params.prism_cells && !params.prism_cells->points.empty()) {
+            centres_.prisms = params.prism_cells;
+            centres_.global = part.global;
+            centres_.stacked.resize(part.global.size());
+            for (size_t l = 0; l < part.global.size(); ++l) {
+                centres_.local.emplace(part.global[l], int32_t(l));
+                const size_t v = size_t(part.global[l]);
+                centres_.stacked[l] = v < params.prism_cells->generator.size() && params.prism_cells->generator[v] >= 0;
+            }
+            ed_.centres = &centres_;
+        }
         if (!layers.empty())
             for (int32_t v : part.global) layers_.push_back(size_t(v) < layers.size() ? layers[v] : LayerBound{});
         if (passes != Passes::dihedral)
@@ -753,6 +766,7 @@ public:
     void commit() { ed_.commit(); }
 
 private:
+    CellCentres centres_;
     TetEditor ed_;
     EditLog log_;                    // what the passes changed
     std::vector<LayerBound> layers_; // per part point

@@ -11,8 +11,10 @@
 #include "core/surface_mesh.h"
 #include "core/tet_mesh.h"
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
+#include <unordered_map>
 #include <vector>
 
 namespace scalemesh {
@@ -181,6 +183,49 @@ DihedralCounts raise_dihedral_angles(TetMesh& mesh, int32_t surface_points, doub
 // The schedule of the two passes above as the volume stage runs them
 // (improve_cells): a dihedral pass, then rounds of a non-orthogonality pass
 // and a dihedral pass while either still changes the mesh.
+// The prisms of a layer stack as the cells the solver will see (the
+// `prisms` layers, layer_stack.h): the cell passes measure a face of a
+// prism's tet from the prism's centre, not the tet's, since the prism is
+// written as one cell (layer_prisms.h).
+struct PrismCells {
+    std::vector<int32_t> generator, layer;      // per mesh point: its column's wall node and layer; -1 elsewhere
+    std::vector<std::array<int32_t, 6>> points; // per prism: its bottom's three points, then its top's, by wall node
+    std::vector<Vec3> start;                    // the mesh's points as the passes begin
+    struct KeyHash {
+        size_t operator()(const std::array<int32_t, 4>& k) const
+        {
+            uint64_t h = 0xcbf29ce484222325ull;
+            for (int32_t x : k) h = (h ^ uint32_t(x)) * 0x100000001b3ull;
+            return size_t(h);
+        }
+    };
+    std::unordered_map<std::array<int32_t, 4>, int64_t, KeyHash> index; // (wall nodes ascending, top layer) -> prism
+
+    // The prism whose three tets include one with the mesh points g, or -1.
+    int64_t prism_of(const std::array<int32_t, 4>& g) const
+    {
+        std::array<int32_t, 4> key{-1, -1, -1, -1};
+        int count = 0, lo = 1 << 30, hi = -1;
+        for (int32_t v : g) {
+            if (size_t(v) >= generator.size() || generator[v] < 0) return -1;
+            lo = std::min(lo, layer[v]), hi = std::max(hi, layer[v]);
+            if (std::find(key.begin(), key.begin() + count, generator[v]) == key.begin() + count) {
+                if (count == 3) return -1;
+                key[count++] = generator[v];
+            }
+        }
+        if (count != 3 || hi != lo + 1) return -1;
+        std::sort(key.begin(), key.begin() + 3);
+        key[3] = hi;
+        const auto it = index.find(key);
+        if (it == index.end()) return -1;
+        const auto& six = points[it->second];
+        for (int32_t v : g)
+            if (std::find(six.begin(), six.end(), v) == six.end()) return -1;
+        return it->second;
+    }
+};
+
 struct CellPassParams {
     double dihedral_target_deg = 12; // degrees: the tets below it are raised (a margin over the floor of 10)
     int dihedral_sweeps = 8;         // sweeps of each dihedral pass
@@ -195,6 +240,7 @@ struct CellPassParams {
     // the first round leaves the targets to the second.
     int64_t tets_per_slab = 16384;
     int max_slabs = 4;
+    const PrismCells* prism_cells = nullptr; // the stack's prisms, measured as cells (none: every tet a cell)
 };
 
 struct CellCounts {

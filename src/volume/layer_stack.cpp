@@ -43,6 +43,19 @@ namespace {
 // Whether the split of a prism is good: each tet positive and at least
 // `fraction` of the three's volume, and the prism star-shaped from its
 // centroid as the export asks of a prism cell (layer_prisms.h).
+// A prism's centroid: its split's tets' centroids weighted by their volumes.
+Vec3 split_centroid(const std::array<Tet, 3>& tets, const std::vector<Vec3>& at)
+{
+    Vec3 sum;
+    double total = 0;
+    for (const Tet& t : tets) {
+        const double v = tet_volume6(at[t[0]], at[t[1]], at[t[2]], at[t[3]]);
+        sum += v * (at[t[0]] + at[t[1]] + at[t[2]] + at[t[3]]) / 4;
+        total += v;
+    }
+    return total != 0 ? sum / total : (at[tets[0][0]] + at[tets[2][3]]) / 2;
+}
+
 bool good_split(const std::array<Tet, 3>& tets, const std::vector<Vec3>& at, double fraction, bool star = true)
 {
     double v[3], total = 0;
@@ -241,6 +254,31 @@ LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizi
     // shortened below min_scale of its height: a prism still poor there is
     // left bare (below), not made a sliver.
     std::vector<char> poor(walls.size()), lenient(walls.size(), 0);
+    // The side faces: the quad between the prisms of one layer over two
+    // wall triangles that share an edge turns with the columns, layer by
+    // layer (where the wall curves, the columns' directions part or cross),
+    // so its non-orthogonality grows with the layer. Where a side face
+    // would be beyond max_side_non_orthogonality_deg, both prisms' columns
+    // are shortened (thinner layers turn less); never made holes for it.
+    const EdgeFaces edges = wall_edge_faces(surface, walls);
+    const double side_cosine = std::cos(params.max_side_non_orthogonality_deg * M_PI / 180);
+    std::vector<char> side_poor(walls.size(), 0);
+    const auto check_sides = [&](size_t w) {
+        const Triangle& t = surface.triangles[walls[w]];
+        for (int k = 0; k < 3; ++k) {
+            const int32_t a = t[k], b = t[(k + 1) % 3], o = edges.other(a, b);
+            if (o < 0) continue;
+            for (int32_t m = 1; m <= L; ++m) {
+                const Vec3 join = split_centroid(split(walls[o], m), at) - split_centroid(split(walls[w], m), at);
+                const Vec3 p0 = at[point(a, m - 1)], p1 = at[point(b, m - 1)], p2 = at[point(b, m)], p3 = at[point(a, m)];
+                const Vec3 area = cross(p2 - p0, p3 - p1);
+                if (!(std::abs(dot(area, join)) >= side_cosine * norm(area) * norm(join))) {
+                    side_poor[w] = 1;
+                    return;
+                }
+            }
+        }
+    };
     for (size_t w = 0; w < walls.size(); ++w)
         for (int32_t v : surface.triangles[walls[w]])
             if (stack.first[v] < 0) lenient[w] = 1;
@@ -272,10 +310,14 @@ LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizi
         }
         const SelfIntersections crossing = self_intersections(top, size_t(1) << 20);
         for (const auto& pair : crossing.first) poor[pair[0]] = poor[pair[1]] = 1;
-        if (std::find(poor.begin(), poor.end(), 1) == poor.end() || stack.rounds == params.max_rounds) break;
+        std::fill(side_poor.begin(), side_poor.end(), 0);
+        tbb::parallel_for(size_t(0), walls.size(), check_sides);
+        const bool any_poor = std::find(poor.begin(), poor.end(), 1) != poor.end();
+        const bool any_side = std::find(side_poor.begin(), side_poor.end(), 1) != side_poor.end();
+        if ((!any_poor && !any_side) || stack.rounds == params.max_rounds) break;
         std::vector<char> shorten(n, 0);
         for (size_t w = 0; w < walls.size(); ++w)
-            if (poor[w])
+            if (poor[w] || side_poor[w])
                 for (int32_t v : surface.triangles[walls[w]]) shorten[v] = 1;
         bool shortened = false;
         for (int32_t v = 0; v < n; ++v)
@@ -332,7 +374,6 @@ LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizi
             }
         }
     }
-    const EdgeFaces edges = wall_edge_faces(surface, walls);
     const auto check_strips = [&](size_t w) {
         const Triangle& t = surface.triangles[walls[w]];
         for (int k = 0; k < 3; ++k) {

@@ -35,6 +35,8 @@ struct LayerStackParams {
     double min_scale = 0.1;         // down to this fraction of its height at most
     double slope = 0.3;             // a column's height fraction exceeds a neighbour's by at most this
     int max_rounds = 40;            // rounds of shortening at most
+    double max_side_non_orthogonality_deg = 65; // a side face between two prisms of one layer beyond this
+                                                // shortens their columns (a margin under the solver's 70)
     int relax_round = 12;           // from this round on, prisms that shortening does not mend are accepted
                                     // with thinner tets (build_layer_stack)
     // Per surface node x floor(M/2): the surface point that is layer m of a

@@ -18,6 +18,7 @@
 #include <initializer_list>
 #include <optional>
 #include <stdexcept>
+#include <unordered_map>
 #include <vector>
 
 #include <tbb/blocked_range.h>
@@ -50,10 +51,52 @@ private:
     int count_ = 0;
 };
 
+// The centres of the cells a few tets belong to: a layer prism's three
+// tets are one cell, whose centre is the prism's (its six points where they
+// are now; a point the part does not hold where the passes began).
+struct CellCentres {
+    const PrismCells* prisms = nullptr;
+    std::vector<int32_t> global;                 // part point -> mesh point
+    std::unordered_map<int32_t, int32_t> local;  // mesh point -> part point
+    std::vector<char> stacked;                   // per part point: a wall node or a layer point
+    // The cell's key (its prism's index) and centre, when tet x is a prism's.
+    template <class At>
+    bool of(const Tet& x, const At& at, Vec3& centre, int64_t* key = nullptr) const
+    {
+        if (!prisms) return false;
+        for (int32_t v : x)
+            if (size_t(v) >= stacked.size() || !stacked[v]) return false;
+        std::array<int32_t, 4> g;
+        for (int k = 0; k < 4; ++k) g[k] = global[x[k]];
+        const int64_t p = prisms->prism_of(g);
+        if (p < 0) return false;
+        const auto position = [&](int32_t v) -> Vec3 {
+            const auto it = local.find(v);
+            return it != local.end() ? Vec3(at(it->second)) : prisms->start[v];
+        };
+        const auto& six = prisms->points[p];
+        Vec3 q[6];
+        for (int k = 0; k < 6; ++k) q[k] = position(six[k]);
+        // Volume-weighted centroid of three tets filling the prism.
+        const std::array<std::array<int, 4>, 3> split{{{0, 1, 2, 3}, {1, 2, 3, 4}, {2, 3, 4, 5}}};
+        Vec3 sum{};
+        double volume = 0;
+        for (const auto& t : split) {
+            const double v = tet_volume6(q[t[0]], q[t[1]], q[t[2]], q[t[3]]);
+            sum += v * 0.25 * (q[t[0]] + q[t[1]] + q[t[2]] + q[t[3]]);
+            volume += v;
+        }
+        centre = volume != 0 ? sum / volume : (q[0] + q[1] + q[2] + q[3] + q[4] + q[5]) / 6.0;
+        if (key) *key = p;
+        return true;
+    }
+};
+
 // The tets as a mutable set with vertex-to-tet lists (dead entries are
 // skipped and dropped lazily), enough for local flips and point moves.
 class TetEditor {
 public:
+    const CellCentres* centres = nullptr; // cells of more than one tet, measured whole
     // The incident tets of every point as one flat table (incident_cells);
     // a point's own list is made from it the first time an edit looks at it
     // or adds a tet to it. An edit touches few of the points, so the editor
@@ -233,24 +276,28 @@ double volume_floor6(const TetEditor& ed, const Tets& tets)
 // (below any cosine) when the face or the join is degenerate. The one
 // measure of the cell passes (cell_passes.cpp) and of points_missing_floors.
 template <class At>
-double face_cosine(const At& at, const Tet& t, int k, const Tet& other)
+double face_cosine(const At& at, const Tet& t, int k, const Tet& other, const CellCentres* centres = nullptr)
 {
-    const auto centre = [&](const Tet& x) { return 0.25 * (at(x[0]) + at(x[1]) + at(x[2]) + at(x[3])); };
+    int64_t key_t = -1, key_o = -2;
+    Vec3 from, to;
+    if (!(centres && centres->of(t, at, from, &key_t))) from = 0.25 * (at(t[0]) + at(t[1]) + at(t[2]) + at(t[3]));
+    if (!(centres && centres->of(other, at, to, &key_o))) to = 0.25 * (at(other[0]) + at(other[1]) + at(other[2]) + at(other[3]));
+    if (key_t == key_o) return 1.0; // two tets of one cell
     const Vec3& a = at(t[(k + 1) % 4]);
     Vec3 normal = cross(at(t[(k + 2) % 4]) - a, at(t[(k + 3) % 4]) - a);
     if (dot(normal, at(t[k]) - a) > 0) normal = -normal; // out of t
-    const Vec3 join = centre(other) - centre(t);
+    const Vec3 join = to - from;
     const double scale = norm(normal) * norm(join);
     return scale > 0 ? dot(normal, join) / scale : -2;
 }
 
 // face_cosine of the face tets t and `other` share, t's corner off it found.
 template <class At>
-double shared_face_cosine(const At& at, const Tet& t, const Tet& other)
+double shared_face_cosine(const At& at, const Tet& t, const Tet& other, const CellCentres* centres = nullptr)
 {
     int k = 0;
     while (TetEditor::contains(other, t[k])) ++k;
-    return face_cosine(at, t, k, other);
+    return face_cosine(at, t, k, other, centres);
 }
 
 // An interior face of tets[i] (the face opposite its corner k) and the tet
@@ -301,7 +348,7 @@ double worst_cosine(const TetEditor& ed, const Tets& tets, const std::vector<Fac
     const auto at = [&](int32_t v) -> const Vec3& { return ed.point(v); };
     for (const FaceLink& link : links) {
         const Tet& other = link.inside >= 0 ? tets[link.inside] : ed.tet(link.outside);
-        const double cosine = face_cosine(at, tets[link.i], link.k, other);
+        const double cosine = face_cosine(at, tets[link.i], link.k, other, ed.centres);
         if (cosine < -1.5) return -1;
         worst = std::min(worst, cosine);
     }

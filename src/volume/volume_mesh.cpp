@@ -272,8 +272,36 @@ void improve_joined(TetMesh& mesh, const SurfaceMesh& surface, const LayerStack&
         bound.on_normal = true;
     }
     const int32_t locked = static_cast<int32_t>(stack.tets.size());
+    // The prisms, as the cells the solver will see: each three of the
+    // stack's tets, their points known by column and layer.
+    PrismCells prisms;
+    prisms.generator.assign(mesh.points.size(), -1);
+    prisms.layer.assign(mesh.points.size(), -1);
+    for (int32_t v = 0; v < n; ++v) prisms.generator[v] = v, prisms.layer[v] = 0;
+    for (size_t i = 0; i < stack.rim_columns.size(); ++i)
+        if (const int32_t c = stack.rim_columns[i]; c >= 0)
+            prisms.generator[c] = static_cast<int32_t>(i / L), prisms.layer[c] = static_cast<int32_t>(i % L) + 1;
+    for (size_t k = 0; k < stack.points.size(); ++k)
+        prisms.generator[n + k] = stack.point_generator[k], prisms.layer[n + k] = stack.point_layer[k];
+    for (size_t i = 0; i + 3 <= stack.tets.size(); i += 3) {
+        std::vector<int32_t> six;
+        for (size_t j = i; j < i + 3; ++j) six.insert(six.end(), stack.tets[j].begin(), stack.tets[j].end());
+        std::sort(six.begin(), six.end());
+        six.erase(std::unique(six.begin(), six.end()), six.end());
+        if (six.size() != 6) continue;
+        std::sort(six.begin(), six.end(), [&](int32_t a, int32_t b) {
+            return std::pair(prisms.layer[a], prisms.generator[a]) < std::pair(prisms.layer[b], prisms.generator[b]);
+        });
+        const std::array<int32_t, 4> key{prisms.generator[six[0]], prisms.generator[six[1]], prisms.generator[six[2]],
+                                         prisms.layer[six[5]]};
+        prisms.index.emplace(key, static_cast<int64_t>(prisms.points.size()));
+        prisms.points.push_back({six[0], six[1], six[2], six[3], six[4], six[5]});
+    }
+    prisms.start = mesh.points;
+    CellPassParams cell_params;
+    cell_params.prism_cells = &prisms;
     const auto cell_passes = Clock::now();
-    const CellCounts made = improve_cells(mesh, n, CellPassParams{}, bounds, locked);
+    const CellCounts made = improve_cells(mesh, n, cell_params, bounds, locked);
     count_cell_passes(made, result);
     result.dihedral_tets_before = made.dihedral.tets_before;
     result.ortho_faces_before = made.ortho.faces_before;

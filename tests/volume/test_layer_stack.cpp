@@ -4,12 +4,15 @@
 #include "core/errors.h"
 #include "core/tet_mesh.h"
 #include "sizing/feature_size.h"
+#include "volume/improve.h"
 #include "volume/layer_stack.h"
+#include "volume/tet_editor.h"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <map>
 #include <set>
 #include <string>
@@ -240,6 +243,122 @@ TEST(LayerStack, ABareRimTriangleBesideAPrismLeavesTheCoreBoundaryOneSurface)
             edges.insert(std::minmax(t[k], t[(k + 1) % 3]));
         }
     EXPECT_EQ(int64_t(points.size()) - int64_t(edges.size()) + int64_t(stack.top.size()), 1);
+}
+
+// The worst side face between the two prisms of each layer over the wall
+// triangles (a, b, c) and (b, a, d) (points 0 to 3, no holes): the angle between the
+// quad a-b's area vector and the join of the prisms' centroids, degrees.
+double worst_side_face_deg(const SurfaceMesh& surface, const LayerStack& stack)
+{
+    const int32_t n = static_cast<int32_t>(surface.points.size());
+    const auto at = [&](int32_t v) { return v < n ? surface.points[v] : stack.points[v - n]; };
+    const auto point = [&](int32_t v, int32_t m) { return m == 0 ? v : n + stack.first[v] + m - 1; };
+    const auto centroid = [&](size_t first_tet) {
+        Vec3 sum;
+        double total = 0;
+        for (size_t i = first_tet; i < first_tet + 3; ++i) {
+            const Tet& t = stack.tets[i];
+            const double v = tet_volume6(at(t[0]), at(t[1]), at(t[2]), at(t[3]));
+            sum += v * (at(t[0]) + at(t[1]) + at(t[2]) + at(t[3])) / 4;
+            total += v;
+        }
+        return sum / total;
+    };
+    double worst = 0;
+    for (int32_t m = 1; m <= stack.layers; ++m) {
+        // Tets in wall triangle order, then layer by layer, three a prism.
+        const Vec3 join = centroid(3 * size_t(stack.layers + m - 1)) - centroid(3 * size_t(m - 1));
+        const Vec3 area = cross(at(point(1, m)) - at(point(0, m - 1)), at(point(0, m)) - at(point(1, m - 1)));
+        const double cosine = std::abs(dot(area, join)) / (norm(area) * norm(join));
+        worst = std::max(worst, std::acos(std::min(1.0, cosine)) * 180 / M_PI);
+    }
+    return worst;
+}
+
+TEST(LayerStack, SideFacesBetweenPrismsStayWithinTheBound)
+{
+    // Two wall triangles on the edge a-b, three layers. a and b's columns
+    // stand upright; c's leans toward +x and d's toward -x, as where the
+    // wall curves: layer by layer the two prisms part along the edge, and
+    // the join of their centroids turns away from the normal of the quad
+    // they share. The columns are shortened until no side face is beyond
+    // the bound.
+    SurfaceMesh surface;
+    surface.points = {{0, 0, 0}, {1, 0, 0}, {0.5, -0.25, 0}, {0.5, 0.25, 0}}; // a b c d
+    surface.triangles = {{0, 1, 2}, {1, 0, 3}};
+    surface.triangle_patch = {0, 0};
+    FeatureSize sizing;
+    sizing.d.assign(4, 1.0);
+    sizing.D.assign(4, 100.0);
+    LayerColumns columns;
+    columns.layers = 3;
+    columns.inward = {{0, 0, 1}, {0, 0, 1}, normalized(Vec3{0.84, 0, 1}), normalized(Vec3{-0.84, 0, 1})};
+    for (int v = 0; v < 4; ++v) {
+        columns.dist.insert(columns.dist.end(), {0.4, 0.9, 1.5});
+        columns.spacing.insert(columns.spacing.end(), {0.4, 0.5, 0.6});
+    }
+    columns.repaired.assign(4, 0);
+
+    LayerStackParams unbounded;
+    unbounded.max_side_non_orthogonality_deg = 90;
+    const LayerStack free_stack = build_layer_stack(surface, sizing, columns, unbounded);
+    ASSERT_EQ(free_stack.prisms, 6); // two triangles, three layers
+    ASSERT_EQ(free_stack.holes, 0);
+    const double free_worst = worst_side_face_deg(surface, free_stack);
+    EXPECT_GT(free_worst, 70); // beyond what a solver takes: the geometry asks for the bound
+
+    const LayerStackParams bounded; // 65 degrees
+    const LayerStack stack = build_layer_stack(surface, sizing, columns, bounded);
+    ASSERT_EQ(stack.prisms, 6);
+    EXPECT_EQ(stack.holes, 0);
+    EXPECT_LE(worst_side_face_deg(surface, stack), bounded.max_side_non_orthogonality_deg + 1e-9);
+    EXPECT_GT(stack.shortened_nodes, 0);
+    // Shortened, not emptied: every column keeps its three layers.
+    for (int32_t v = 0; v < 4; ++v) EXPECT_GE(stack.first[v], 0) << v;
+}
+
+TEST(LayerStack, TheCellPassesMeasureAPrismsFaceFromThePrismsCentre)
+{
+    // One right prism of height 0.2 over (a, b, c) and a core tet on its top
+    // with its apex e off to the side. The solver sees the prism as one
+    // cell, centred at (1/3, 1/3, 0.1): the top face's non-orthogonality is
+    // measured from there, not from the centroid of the tet of the split
+    // that holds the top.
+    const std::vector<Vec3> x = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 0.2}, {1, 0, 0.2}, {0, 1, 0.2}, {0.9, 0.6, 0.7}};
+    const std::array<Tet, 3> split = prism_split({0, 1, 2}, {3, 4, 5}, {0, 1, 2});
+    const Tet core{3, 4, 5, 6};
+    PrismCells prisms;
+    prisms.generator = {0, 1, 2, 0, 1, 2, -1};
+    prisms.layer = {0, 0, 0, 1, 1, 1, -1};
+    prisms.points = {{0, 1, 2, 3, 4, 5}};
+    prisms.index[{0, 1, 2, 1}] = 0;
+    prisms.start = x;
+    improvement::CellCentres centres;
+    centres.prisms = &prisms;
+    centres.global = {0, 1, 2, 3, 4, 5, 6};
+    for (int32_t v = 0; v < 7; ++v) centres.local[v] = v;
+    centres.stacked = {1, 1, 1, 1, 1, 1, 0};
+    const auto at = [&](int32_t v) -> const Vec3& { return x[v]; };
+
+    for (const Tet& t : split) EXPECT_EQ(prisms.prism_of(t), 0) << t[0] << t[1] << t[2] << t[3];
+    EXPECT_EQ(prisms.prism_of(core), -1);
+    const Tet* top = nullptr;
+    for (const Tet& t : split)
+        if (improvement::TetEditor::contains(t, 3) && improvement::TetEditor::contains(t, 4) &&
+            improvement::TetEditor::contains(t, 5))
+            top = &t;
+    ASSERT_NE(top, nullptr);
+
+    const Vec3 prism_centre{1.0 / 3, 1.0 / 3, 0.1};
+    const Vec3 core_centre = (x[3] + x[4] + x[5] + x[6]) / 4;
+    const Vec3 join = core_centre - prism_centre;
+    const double expected = join.z / norm(join); // the top face's normal out of the prism is +z
+    const double measured = improvement::shared_face_cosine(at, *top, core, &centres);
+    EXPECT_NEAR(measured, expected, 1e-12);
+    // From the tet's own centroid the angle is another.
+    EXPECT_GT(std::abs(improvement::shared_face_cosine(at, *top, core) - expected), 0.01);
+    // Two tets of one prism are one cell: no face between them is measured.
+    EXPECT_EQ(improvement::shared_face_cosine(at, split[0], split[1], &centres), 1.0);
 }
 
 } // namespace
