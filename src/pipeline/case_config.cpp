@@ -167,6 +167,7 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
 
     CaseConfig config;
     config.directory = dir;
+    config.source = source;
 
     const Section input(root["input"].as_table(), "input", source,
                         {"phantom", "file", "voxel_size", "noise", "seed", "grid", "iso", "connectivity", "labels",
@@ -437,18 +438,13 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
                          "4.1 is Gmsh's current format; 2.2 is read by older tools and gmshToFoam");
     config.msh_binary = output.get<bool>("msh_binary").value_or(false);
     const int64_t decompose = output.get<int64_t>("decompose").value_or(1);
-    // The cell count bounds it too, checked when the cells are known.
-    if (decompose < 1)
-        throw InputError(output.where("decompose") + " must be at least 1",
-                         "give the number of processor meshes for a parallel run, e.g. decompose = 4, or leave it out");
     if (decompose > std::numeric_limits<int32_t>::max())
         throw InputError(output.where("decompose") + " is more processor meshes than a mesh can have cells",
                          "give the number of processor meshes for a parallel run, e.g. decompose = 4");
-    config.decompose = static_cast<int32_t>(decompose);
-    if (config.decompose > 1 && !config.openfoam)
-        throw InputError(output.where("decompose") + " asks for processor meshes, but openfoam = false writes no "
-                                                     "OpenFOAM case",
-                         "set openfoam = true, or leave decompose out");
+    // Below 1, or with openfoam = false, refused by check_decompose once the
+    // command line may have replaced it; the cell count bounds it too, checked
+    // when the cells are known.
+    config.decompose = static_cast<int32_t>(std::max<int64_t>(decompose, std::numeric_limits<int32_t>::min()));
 
     const Section run(root["run"].as_table(), "run", source, {"threads"});
     const int64_t threads = run.get<int64_t>("threads").value_or(0);
@@ -456,6 +452,22 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
         throw InputError(run.where("threads") + " is out of range", "give 0 (all cores) or a thread count");
     config.threads = static_cast<int>(threads);
     return config;
+}
+
+void check_decompose(const CaseConfig& config)
+{
+    const std::string key = config.decompose_on_command_line ? "--decompose" : "decompose";
+    const std::string where = config.decompose_on_command_line
+                                  ? "--decompose " + std::to_string(config.decompose)
+                                  : config.source + ": [output] decompose";
+    const std::string example = config.decompose_on_command_line ? "--decompose 4" : "decompose = 4";
+    if (config.decompose < 1)
+        throw InputError(where + " must be at least 1",
+                         "give the number of processor meshes for a parallel run, e.g. " + example + ", or leave it out");
+    if (config.decompose > 1 && !config.openfoam)
+        throw InputError(where + " asks for processor meshes, but the case's [output] openfoam = false writes no "
+                                 "OpenFOAM case",
+                         "set openfoam = true in the case file, or leave " + key + " out");
 }
 
 CaseConfig read_case(const std::filesystem::path& dir)

@@ -27,6 +27,7 @@ struct Length {
 
 struct CaseConfig {
     std::filesystem::path directory; // the case directory; relative paths resolve against it
+    std::string source;              // the case file as messages name it (parse_case's `source`)
 
     // [input]: exactly one of phantom and file.
     std::string phantom;            // phantom shape name
@@ -94,6 +95,7 @@ struct CaseConfig {
     bool openfoam = true;           // constant/polyMesh, system/, constant/ (and 0/ with openings)
     bool openfoam_binary = false;
     int32_t decompose = 1;          // processor meshes for a parallel run (processor0 .. processor<N-1>); 1: none
+    bool decompose_on_command_line = false; // decompose is `scalemesh run --decompose`'s, not the case file's
     bool layer_prisms = true; // polyMesh: the three tets filling a layer prism as one cell (layer_prisms.h)
     double msh_version = 4.1;
     bool msh_binary = false;
@@ -105,6 +107,14 @@ struct CaseConfig {
 // syntax error, an unknown key (listing the valid ones), a wrong type or a
 // value out of range; IoError when the file is missing.
 CaseConfig read_case(const std::filesystem::path& dir);
+
+// Throws InputError, naming where decompose was given (the case file's key or
+// --decompose), when it is below 1 or asks for processor meshes of a case that
+// writes no OpenFOAM case (openfoam = false). Called once, after the command
+// line's --decompose, if any, has replaced the case file's value (run_case):
+// parse_case leaves these to it. The cell count bounds decompose too, checked
+// when the cells are known.
+void check_decompose(const CaseConfig& config);
 
 // A TOML basic string for case-file text: quoted, with '"' and '\\' escaped.
 std::string toml_string(const std::string& s);

@@ -606,7 +606,6 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
                     int64_t max_memory, std::optional<int> decompose)
 {
     CaseConfig config = read_case(dir);
-    const int64_t orphans = remove_orphaned_partials(dir);
     if (threads) {
         if (*threads < 0 || *threads > 1024)
             throw InputError("--threads " + std::to_string(*threads) + " is out of range",
@@ -614,16 +613,11 @@ CaseResult run_case(const std::filesystem::path& dir, const StageListener& liste
         config.threads = *threads;
     }
     if (decompose) {
-        if (*decompose < 1)
-            throw InputError("--decompose " + std::to_string(*decompose) + " must be at least 1",
-                             "give the number of processor meshes for a parallel run, e.g. --decompose 4");
         config.decompose = *decompose;
-        if (config.decompose > 1 && !config.openfoam)
-            throw InputError("--decompose " + std::to_string(*decompose) +
-                                 " asks for processor meshes, but the case's [output] openfoam = false writes no "
-                                 "OpenFOAM case",
-                             "set openfoam = true in the case file, or leave --decompose out");
+        config.decompose_on_command_line = true;
     }
+    check_decompose(config);
+    const int64_t orphans = remove_orphaned_partials(dir);
     // The stages and the export in one arena of the case's threads, so that
     // --threads bounds every parallel step, the writers' included.
     tbb::task_arena arena(config.threads > 0 ? config.threads : tbb::task_arena::automatic);
