@@ -2,6 +2,7 @@
 
 #include "core/atomic_file.h"
 #include "core/errors.h"
+#include "exporters/foam_file.h"
 
 #include <cmath>
 #include <fstream>
@@ -22,14 +23,8 @@ class CaseFiles {
 public:
     explicit CaseFiles(std::filesystem::path dir) : dir_(std::move(dir)) {}
 
-    void add(const std::string& relative, const std::string& text)
-    {
-        const std::filesystem::path path = dir_ / relative;
-        outputs_.push_back(std::make_unique<AtomicOutput>(path, true));
-        std::ofstream out(outputs_.back()->temporary());
-        out << text << "\n// ************************************************************************* //\n";
-        if (!out.flush()) throw IoError(path.string(), "cannot write the file");
-    }
+    // An OpenFOAM file: `text`, its header included.
+    void add(const std::string& relative, const std::string& text) { write_foam_file(dir_ / relative, text, outputs_); }
 
     // A script, executable by everyone who may read it.
     void add_script(const std::string& relative, const std::string& text)

@@ -1,10 +1,10 @@
 #include "exporters/polymesh_decompose.h"
 
 #include "core/errors.h"
+#include "exporters/foam_file.h"
 
 #include <algorithm>
 #include <charconv>
-#include <fstream>
 #include <limits>
 #include <memory>
 #include <numeric>
@@ -74,12 +74,9 @@ public:
         text_ += ")\n";
     }
 
-    void write(const std::filesystem::path& path, StagedOutputs& outputs)
+    void write(const std::filesystem::path& path, StagedOutputs& outputs) const
     {
-        outputs.push_back(std::make_unique<AtomicOutput>(path, true));
-        std::ofstream out(outputs.back()->temporary(), std::ios::binary);
-        out << text_ << "\n// ************************************************************************* //\n";
-        if (!out.flush()) throw IoError(path.string(), "cannot write the file (disk full?)");
+        write_foam_file(path, text_, outputs);
     }
 
 private:

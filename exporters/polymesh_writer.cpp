@@ -3,6 +3,7 @@
 #include "core/atomic_file.h"
 #include "core/errors.h"
 #include "core/vec3.h"
+#include "exporters/foam_file.h"
 
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_pipeline.h>
@@ -14,7 +15,6 @@
 #include <charconv>
 #include <cmath>
 #include <cstring>
-#include <fstream>
 #include <limits>
 #include <memory>
 #include <mutex>
@@ -75,12 +75,12 @@ private:
     size_t size_ = 0, capacity_ = 0;
 };
 
-// One OpenFOAM file: its header and the small text around its lists.
+// One polyMesh file: its header and the small text around its lists.
 class FoamFile {
 public:
-    FoamFile(const std::filesystem::path& path, bool binary) : path_(path), out_(path, std::ios::binary), binary_(binary)
+    FoamFile(const std::filesystem::path& path, StagedOutputs& outputs, bool binary)
+        : out_(path, outputs), binary_(binary)
     {
-        if (!out_) throw IoError(path.string(), "cannot open for writing");
     }
 
     void header(const std::string& cls, const std::string& object, const std::string& note = "")
@@ -88,7 +88,7 @@ public:
         text(foam_file_header(binary_, cls, "constant/polyMesh", object, note));
     }
 
-    void text(std::string_view s) { out_.write(s.data(), static_cast<std::streamsize>(s.size())); }
+    void text(std::string_view s) { out_.text(s); }
 
     // The opening of a list of n entries: "n\n(" and, in ASCII, a newline.
     void open_list(size_t n)
@@ -99,16 +99,10 @@ public:
     }
     void close_list() { text(")\n"); }
 
-    void finish()
-    {
-        text("\n// ************************************************************************* //\n");
-        out_.flush();
-        if (!out_) throw IoError(path_.string(), "cannot write the file (disk full?)");
-    }
+    void finish() { out_.finish(); }
 
 private:
-    std::filesystem::path path_;
-    std::ofstream out_;
+    FoamFileOutput out_;
     bool binary_;
 };
 
@@ -490,17 +484,6 @@ FaceGeometry openfoam_face(const TetMesh& mesh, const int32_t* p, int count)
 
 } // namespace
 
-std::string foam_file_header(bool binary, const std::string& cls, const std::string& location,
-                             const std::string& object, const std::string& note)
-{
-    std::string text = "FoamFile\n{\n    version     2.0;\n    format      ";
-    text += binary ? "binary" : "ascii";
-    text += ";\n    arch        \"LSB;label=32;scalar=64\";\n    class       " + cls + ";\n    location    \"" +
-            location + "\";\n";
-    if (!note.empty()) text += "    note        \"" + note + "\";\n";
-    return text + "    object      " + object + ";\n}\n\n";
-}
-
 OpenFoamCellChecks openfoam_cell_checks(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
                                         const std::vector<int32_t>& cell_of_tet, int32_t cells,
                                         const OpenFoamCellBounds& bounds, const std::vector<char>* quad_cells)
@@ -643,11 +626,8 @@ PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& 
     const std::filesystem::path dir = case_dir / "constant" / "polyMesh";
 
     const bool binary = options.binary;
-    std::vector<std::unique_ptr<AtomicOutput>> outputs;
-    auto open = [&](const char* name) {
-        outputs.push_back(std::make_unique<AtomicOutput>(dir / name, true));
-        return FoamFile(outputs.back()->temporary(), binary);
-    };
+    StagedOutputs outputs;
+    auto open = [&](const char* name) { return FoamFile(dir / name, outputs, binary); };
     std::ostringstream note;
     note << "nPoints:" << counts.points << " nCells:" << counts.cells << " nFaces:" << counts.faces
          << " nInternalFaces:" << counts.internal_faces;

@@ -77,12 +77,6 @@ struct PolyMeshCounts {
 PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& case_dir,
                               const PolyMeshOptions& options = {});
 
-// The FoamFile header of an OpenFOAM file: "binary" or "ascii" format, its
-// class, location (e.g. "constant/polyMesh") and object, and a note when
-// not empty.
-std::string foam_file_header(bool binary, const std::string& cls, const std::string& location,
-                             const std::string& object, const std::string& note = "");
-
 // Bounds below checkMesh's own limits (70 degrees of non-orthogonality,
 // skewness 4, a positive pyramid on every face of every cell), with a
 // margin for the round-off between this measure and OpenFOAM's.
