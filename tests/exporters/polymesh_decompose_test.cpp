@@ -6,6 +6,7 @@
 #include "exporters/polymesh_decompose.h"
 
 #include "core/errors.h"
+#include "polymesh_files.h"
 #include "support/temp_dir.h"
 #include "tet_meshes.h"
 
@@ -16,77 +17,10 @@
 #include <map>
 #include <numeric>
 #include <random>
-#include <regex>
 #include <sstream>
 
 namespace scalemesh {
 namespace {
-
-// The numbers of an ASCII OpenFOAM list file after its header, brackets
-// read as spaces: the count first, then the entries.
-std::vector<int64_t> numbers(const std::filesystem::path& file)
-{
-    std::ifstream in(file);
-    std::stringstream text;
-    text << in.rdbuf();
-    std::string body = text.str();
-    const size_t header = body.find("}\n");
-    EXPECT_NE(header, std::string::npos) << file;
-    body = body.substr(header + 2);
-    body = body.substr(0, body.find("//"));
-    std::replace(body.begin(), body.end(), '(', ' ');
-    std::replace(body.begin(), body.end(), ')', ' ');
-    std::istringstream words(body);
-    std::vector<int64_t> out;
-    for (int64_t v; words >> v;) out.push_back(v);
-    return out;
-}
-
-std::vector<int64_t> label_list(const std::filesystem::path& file)
-{
-    std::vector<int64_t> v = numbers(file);
-    EXPECT_FALSE(v.empty()) << file;
-    if (v.empty()) return v;
-    EXPECT_EQ(v[0], static_cast<int64_t>(v.size()) - 1) << file;
-    v.erase(v.begin());
-    return v;
-}
-
-std::vector<std::vector<int32_t>> face_list(const std::filesystem::path& file)
-{
-    const std::vector<int64_t> v = numbers(file);
-    std::vector<std::vector<int32_t>> faces;
-    for (size_t at = 1; at < v.size(); at += static_cast<size_t>(v[at]) + 1)
-        faces.emplace_back(v.begin() + static_cast<std::ptrdiff_t>(at) + 1,
-                           v.begin() + static_cast<std::ptrdiff_t>(at + v[at]) + 1);
-    EXPECT_EQ(static_cast<int64_t>(faces.size()), v.empty() ? -1 : v[0]) << file;
-    return faces;
-}
-
-struct Patch {
-    std::string name;
-    int64_t faces = 0, start = 0, neighbour = -1;
-};
-
-std::vector<Patch> boundary(const std::filesystem::path& file)
-{
-    std::ifstream in(file);
-    std::stringstream text;
-    text << in.rdbuf();
-    const std::string s = text.str();
-    std::vector<Patch> patches;
-    const std::regex entry(R"(\n    (\w+)\n    \{([^}]*)\})");
-    for (auto it = std::sregex_iterator(s.begin(), s.end(), entry); it != std::sregex_iterator(); ++it) {
-        Patch p{(*it)[1].str()};
-        const std::string body = (*it)[2].str();
-        std::smatch m;
-        if (std::regex_search(body, m, std::regex(R"(nFaces\s+(\d+))"))) p.faces = std::stoll(m[1]);
-        if (std::regex_search(body, m, std::regex(R"(startFace\s+(\d+))"))) p.start = std::stoll(m[1]);
-        if (std::regex_search(body, m, std::regex(R"(neighbProcNo\s+(\d+))"))) p.neighbour = std::stoll(m[1]);
-        patches.push_back(p);
-    }
-    return patches;
-}
 
 struct Serial {
     TetMesh mesh = box_of_cubes(4, 3, 5);
@@ -118,13 +52,13 @@ TEST(DecomposedPolyMesh, PiecesHoldEveryCellOnceAndShareFacesFlippedInTheSameOrd
     std::map<std::pair<int, int>, std::vector<int64_t>> shared;
     for (int p = 0; p < kPieces; ++p) {
         const std::filesystem::path mesh = dir.path / ("processor" + std::to_string(p)) / "constant" / "polyMesh";
-        const std::vector<int64_t> cells = label_list(mesh / "cellProcAddressing");
-        const std::vector<int64_t> faces = label_list(mesh / "faceProcAddressing");
-        const std::vector<int64_t> points = label_list(mesh / "pointProcAddressing");
-        const std::vector<int64_t> owner = label_list(mesh / "owner"), neighbour = label_list(mesh / "neighbour");
-        const std::vector<std::vector<int32_t>> local = face_list(mesh / "faces");
-        const std::vector<Patch> patches = boundary(mesh / "boundary");
-        const std::vector<int64_t> patch_of = label_list(mesh / "boundaryProcAddressing");
+        const std::vector<int64_t> cells = read_label_list(mesh / "cellProcAddressing");
+        const std::vector<int64_t> faces = read_label_list(mesh / "faceProcAddressing");
+        const std::vector<int64_t> points = read_label_list(mesh / "pointProcAddressing");
+        const std::vector<int64_t> owner = read_label_list(mesh / "owner"), neighbour = read_label_list(mesh / "neighbour");
+        const std::vector<std::vector<int32_t>> local = read_face_list(mesh / "faces");
+        const std::vector<BoundaryPatch> patches = read_boundary(mesh / "boundary");
+        const std::vector<int64_t> patch_of = read_label_list(mesh / "boundaryProcAddressing");
         EXPECT_EQ(static_cast<int64_t>(cells.size()), counts.cells[p]);
         EXPECT_TRUE(std::is_sorted(cells.begin(), cells.end()));
         EXPECT_TRUE(std::is_sorted(points.begin(), points.end()));
@@ -192,7 +126,7 @@ TEST(DecomposedPolyMesh, PiecesHoldEveryCellOnceAndShareFacesFlippedInTheSameOrd
     EXPECT_EQ(counts.processor_patches, static_cast<int64_t>(shared.size() / 2));
 
     // The partition, for decomposePar's method manual.
-    const std::vector<int64_t> part = label_list(dir.path / "constant" / "cellDecomposition");
+    const std::vector<int64_t> part = read_label_list(dir.path / "constant" / "cellDecomposition");
     EXPECT_EQ(part.size(), cell_seen.size());
     std::ifstream dict(dir.path / "system" / "decomposeParDict");
     std::stringstream text;

@@ -5,56 +5,19 @@
 #include "core/tet_mesh.h"
 #include "exporters/polymesh_writer.h"
 #include "openfoam_support.h"
+#include "polymesh_files.h"
 #include "tet_meshes.h"
 
 #include "support/temp_dir.h"
 
 #include <gtest/gtest.h>
 
-#include <array>
-#include <cstdio>
 #include <fstream>
 #include <random>
 #include <sstream>
 
 namespace scalemesh {
 namespace {
-
-std::vector<int64_t> read_labels(const std::filesystem::path& file)
-{
-    std::ifstream in(file);
-    std::string line;
-    while (std::getline(in, line) && line != "}") {
-    }
-    int64_t n = 0;
-    in >> n;
-    char paren;
-    in >> paren;
-    std::vector<int64_t> v(n);
-    for (auto& x : v) in >> x;
-    return v;
-}
-
-std::vector<std::array<int64_t, 3>> read_faces(const std::filesystem::path& file)
-{
-    std::ifstream in(file);
-    std::string line;
-    while (std::getline(in, line) && line != "}") {
-    }
-    int64_t n = 0;
-    in >> n;
-    std::string token;
-    std::getline(in, token);
-    std::getline(in, token); // "("
-    std::vector<std::array<int64_t, 3>> faces;
-    for (int64_t f = 0; f < n; ++f) {
-        std::getline(in, token);
-        std::array<int64_t, 3> face{};
-        std::sscanf(token.c_str(), "3(%ld %ld %ld)", &face[0], &face[1], &face[2]);
-        faces.push_back(face);
-    }
-    return faces;
-}
 
 TEST(PolyMesh, CubeInSixTetsFollowsOpenFoamsOrderingRules)
 {
@@ -69,9 +32,9 @@ TEST(PolyMesh, CubeInSixTetsFollowsOpenFoamsOrderingRules)
     EXPECT_EQ(counts.patch_faces[0], 12);
 
     const auto poly = dir.path / "constant" / "polyMesh";
-    const auto owner = read_labels(poly / "owner");
-    const auto neighbour = read_labels(poly / "neighbour");
-    const auto faces = read_faces(poly / "faces");
+    const auto owner = read_label_list(poly / "owner");
+    const auto neighbour = read_label_list(poly / "neighbour");
+    const auto faces = read_face_list(poly / "faces");
     ASSERT_EQ(owner.size(), 18u);
     ASSERT_EQ(neighbour.size(), 6u);
     ASSERT_EQ(faces.size(), 18u);
