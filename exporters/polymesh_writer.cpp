@@ -2,6 +2,7 @@
 
 #include "core/atomic_file.h"
 #include "core/errors.h"
+#include "core/face_measures.h"
 #include "core/vec3.h"
 #include "exporters/foam_file.h"
 
@@ -570,7 +571,8 @@ OpenFoamCellChecks openfoam_cell_checks(const TetMesh& mesh, const TetFaceAdjace
         double skew;
         if (other >= 0) {
             const Vec3 d = centre[other] - centre[c];
-            const double cosine = std::min(1.0, dot(d, g.area) / (norm(d) * area + 1e-300));
+            // A flat face or a zero join: 90 degrees, beyond any bound.
+            const double cosine = std::min(1.0, face_orthogonality_cosine(g.area, d, 0.0));
             const double angle = std::acos(std::max(-1.0, cosine)) * 180 / 3.14159265358979323846;
             out.max_non_orthogonality_deg = std::max(out.max_non_orthogonality_deg, angle);
             if (!(angle <= bounds.non_orthogonality_deg)) ++out.faces_beyond_orthogonality, fail(c, other);

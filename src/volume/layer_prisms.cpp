@@ -1,5 +1,6 @@
 #include "volume/layer_prisms.h"
 
+#include "core/face_measures.h"
 #include "core/vec3.h"
 #include "volume/quality.h"
 
@@ -10,6 +11,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <optional>
 #include <span>
@@ -302,12 +304,13 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
     const double min_cosine = std::cos(bounds.max_non_orthogonality_deg * 3.14159265358979323846 / 180);
     const double min_sine = std::sin(kStarAngleDeg * 3.14159265358979323846 / 180);
     // The cosine of face k of tet t against the join from `from` to the
-    // centre of the cell across.
+    // centre of the cell across; NaN for a flat face or a zero join, which
+    // sticks in the comparisons below.
     const auto face_cosine = [&](int32_t t, int k, const Vec3& from) {
         const Triangle f = tet_face(mesh.tets[t], k);
         const Vec3 n = cross(mesh.points[f[1]] - mesh.points[f[0]], mesh.points[f[2]] - mesh.points[f[0]]);
-        const Vec3 d = centre(cell[adjacency.across[4 * t + k]]) - from;
-        return dot(n, d) / (norm(n) * norm(d));
+        return face_orthogonality_cosine(n, centre(cell[adjacency.across[4 * t + k]]) - from,
+                                         std::numeric_limits<double>::quiet_NaN());
     };
 
     // The skewness of face k of tet t (OpenFOAM's faceSkewness): the face

@@ -7,6 +7,7 @@
 // in parallel).
 
 #include "core/adjacency.h"
+#include "core/face_measures.h"
 #include "core/tet_mesh.h"
 #include "volume/improve.h"
 #include "volume/quality.h"
@@ -286,9 +287,7 @@ double face_cosine(const At& at, const Tet& t, int k, const Tet& other, const Ce
     const Vec3& a = at(t[(k + 1) % 4]);
     Vec3 normal = cross(at(t[(k + 2) % 4]) - a, at(t[(k + 3) % 4]) - a);
     if (dot(normal, at(t[k]) - a) > 0) normal = -normal; // out of t
-    const Vec3 join = to - from;
-    const double scale = norm(normal) * norm(join);
-    return scale > 0 ? dot(normal, join) / scale : -2;
+    return face_orthogonality_cosine(normal, to - from, -2);
 }
 
 // face_cosine of the face tets t and `other` share, t's corner off it found.
