@@ -21,11 +21,19 @@
 // in a child of its own with criteria scaled until its tet count is within
 // 20% of ours.
 //
+// Each run also records every stage's own peak resident set and what it
+// left resident ("memory_stages": run_case resets the child's peak as each
+// stage starts and as it ends, so the writing of the outputs has its own),
+// printed per box as a markdown table "memory per stage".
+//
 // Writes the figures as JSON, a plot of stage time against output tets
 // (gnuplot, when installed) and, with --doc, the markdown tables of
-// docs/performance.md followed by the notes file given with --notes.
+// docs/performance.md followed by the notes file given with --notes; with
+// --memory-doc, the memory per stage section alone (the tables, the whole
+// run's peak fitted as a + b tets and what 24 and 128 GiB hold by it).
 
 #include "core/huge_pages.h"
+#include "pipeline/memory_estimate.h"
 #include "pipeline/run_case.h"
 #include "phantom/phantom.h"
 #include "references.h"
@@ -46,6 +54,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -83,6 +92,7 @@ struct Settings {
     std::string plot_path = "bench-pipeline.png";
     std::string doc_path;         // empty: no markdown
     std::string notes_path;       // appended to the markdown verbatim
+    std::string memory_doc_path;  // empty: none; else the memory per stage section alone (markdown)
     std::vector<std::string> from_json; // non-empty: no measuring, the tables and plot from these result files
     std::string command;          // how this run was started, for the doc
 };
@@ -221,6 +231,7 @@ json measure_pipeline(const Settings& s, int box, int threads, bool references, 
 
     std::map<std::string, std::vector<double>> samples;
     CaseResult last;
+    std::optional<ResidentMemory> written; // the peak while writing the outputs, and what is resident after
     int retries = 0;
     {
         const auto start = Clock::now();
@@ -229,8 +240,15 @@ json measure_pipeline(const Settings& s, int box, int threads, bool references, 
         // at the largest boxes, as scalemesh --max-memory).
         const double asked = s.max_memory_gib * (1 << 30);
         const double machine = double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGE_SIZE));
-        last = run_case(dir, {}, std::nullopt, asked > machine ? static_cast<int64_t>(asked) : 0);
+        // run_case resets the process's peak as each stage starts and reads
+        // it as the stage ends (memory.stages); reset again as a stage ends,
+        // the peak after the last one is the writing of the outputs alone.
+        const auto peak_per_stage = [](const StageTime& t) {
+            if (t.seconds >= 0) reset_peak_resident_memory();
+        };
+        last = run_case(dir, peak_per_stage, std::nullopt, asked > machine ? static_cast<int64_t>(asked) : 0);
         const double total = seconds_since(start);
+        written = resident_memory();
         std::map<std::string, double> stage;
         for (const StageTime& t : last.run.stages) {
             const std::string name = t.name.substr(0, t.name.find(" (retry")); // retries count to their stage
@@ -251,7 +269,25 @@ json measure_pipeline(const Settings& s, int box, int threads, bool references, 
     out["box"] = box;
     out["threads"] = threads;
     out["voxel_size_mm"] = h;
-    out["peak_bytes"] = own_peak_bytes();
+    // Per stage (the names of kStages; a retry counts to its stage): its own
+    // peak and what it left resident, bytes. The run's peak is the largest.
+    json stage_memory = json::array();
+    double peak = own_peak_bytes();
+    const auto add_stage_memory = [&](const std::string& name, double peak_bytes, double held_bytes) {
+        peak = std::max(peak, peak_bytes);
+        for (json& entry : stage_memory)
+            if (entry["stage"] == name) {
+                entry["peak_bytes"] = std::max(entry["peak_bytes"].get<double>(), peak_bytes);
+                entry["held_after_bytes"] = held_bytes;
+                return;
+            }
+        stage_memory.push_back({{"stage", name}, {"peak_bytes", peak_bytes}, {"held_after_bytes", held_bytes}});
+    };
+    for (const StageMemory& m : last.run.stage_memory)
+        add_stage_memory(m.stage.substr(0, m.stage.find(" (retry")), double(m.peak_bytes), double(m.resident_after_bytes));
+    if (written && !stage_memory.empty()) add_stage_memory("write", double(written->peak_bytes), double(written->now_bytes));
+    out["peak_bytes"] = peak;
+    out["memory_stages"] = stage_memory;
     out["inside_voxels"] = last.run.inside_voxels;
     out["isosurface_triangles"] = last.run.isosurface.triangles;
     out["smoothed_vertices"] = last.run.facts.vertices;
@@ -463,6 +499,82 @@ std::string mib(double bytes) { return fixed(bytes / (1024.0 * 1024.0), 0); }
 
 std::string ratio(double ours, double reference) { return reference > 0 ? fixed(ours / reference, 2) : "-"; }
 
+// One box's memory per stage (a run of measure_pipeline): each stage's own
+// peak and what it left resident, in MiB and in bytes per tet of the final
+// mesh; "" when the run has no stage figures.
+std::string stage_memory_table(const json& size, const json& run)
+{
+    if (run.contains("error") || !run.contains("memory_stages") || run["memory_stages"].empty()) return "";
+    const double tets = run["tets"];
+    std::ostringstream md;
+    md << "Memory per stage, " << size["box_text"].get<std::string>() << ", " << run["threads"] << " thread"
+       << (run["threads"] == 1 ? "" : "s") << ", " << number(tets, 4) << " tets:\n\n"
+       << "| stage | peak MiB | peak B/tet | held after MiB | held B/tet |\n|---|---|---|---|---|\n";
+    for (const json& m : run["memory_stages"]) {
+        const double peak = m["peak_bytes"], held = m["held_after_bytes"];
+        md << "| " << m["stage"].get<std::string>() << " | " << mib(peak) << " | " << fixed(peak / tets, 0) << " | "
+           << mib(held) << " | " << fixed(held / tets, 0) << " |\n";
+    }
+    return md.str();
+}
+
+// The memory per stage of every box at the largest thread count, then the
+// whole run's peak fitted as bytes = a + b tets (least squares over those
+// boxes), its error at each, and the largest mesh and box 24 and 128 GiB
+// would hold by it (tets growing as the cube of the box, from the largest
+// box measured).
+std::string memory_markdown(const Settings& s, const json& sizes)
+{
+    struct Point {
+        std::string box;
+        int voxels;
+        double tets, peak;
+    };
+    std::vector<Point> points;
+    std::ostringstream md;
+    md << "## Memory per stage\n\n"
+       << "Each stage's own peak resident set (the process's peak reset as the stage starts, "
+       << "`/proc/self/clear_refs`, read from `/proc/self/status` as it ends; report.json's `memory.stages`) and "
+       << "what it left resident, per tet of the final mesh; `write` is the outputs (`mesh.msh`, report.json, "
+       << "quality.png), its held figure with the whole run still in memory. " << s.threads.back() << " thread"
+       << (s.threads.back() == 1 ? "" : "s") << ".\n\n";
+    for (const json& size : sizes) {
+        const json* run = find_run(sizes, size["box"], s.threads.back());
+        if (!run) continue;
+        const std::string table = stage_memory_table(size, *run);
+        if (table.empty()) continue;
+        md << table << "\n";
+        points.push_back({size["box_text"], size["box"], (*run)["tets"], (*run)["peak_bytes"]});
+    }
+    if (points.size() < 2) return points.empty() ? "" : md.str();
+    double mean_t = 0, mean_p = 0;
+    for (const Point& p : points) mean_t += p.tets / double(points.size()), mean_p += p.peak / double(points.size());
+    double stt = 0, stp = 0;
+    for (const Point& p : points) stt += (p.tets - mean_t) * (p.tets - mean_t), stp += (p.tets - mean_t) * (p.peak - mean_p);
+    const double b = stp / stt, a = mean_p - b * mean_t;
+    md << "The whole run's peak against the tets, fitted by least squares over these boxes: **bytes = "
+       << fixed(a / (1024.0 * 1024.0), 0) << " MiB + " << fixed(b, 1) << " B x tets**.\n\n"
+       << "| box | tets | measured peak MiB | model MiB | model error |\n|---|---|---|---|---|\n";
+    for (const Point& p : points) {
+        const double model = a + b * p.tets;
+        md << "| " << p.box << " | " << number(p.tets, 4) << " | " << mib(p.peak) << " | " << mib(model) << " | "
+           << (model >= p.peak ? "+" : "") << fixed(100 * (model - p.peak) / p.peak, 1) << "% |\n";
+    }
+    const Point& largest = *std::max_element(points.begin(), points.end(),
+                                             [](const Point& x, const Point& y) { return x.tets < y.tets; });
+    md << "\n| memory | largest box measured within it | tets by the model | box by the model |\n|---|---|---|---|\n";
+    for (const double gib : {24.0, 128.0}) {
+        const double bytes = gib * (1 << 30), tets = (bytes - a) / b;
+        std::string measured = "-";
+        for (const Point& p : points)
+            if (p.peak <= bytes) measured = p.box + " (" + mib(p.peak) + " MiB)";
+        md << "| " << number(gib) << " GiB | " << measured << " | " << number(tets / 1e6, 3) << "M | about "
+           << fixed(largest.voxels * std::cbrt(tets / largest.tets), 0) << " voxels across |\n";
+    }
+    md << "\n";
+    return md.str();
+}
+
 // The markdown of docs/performance.md: how the figures were made, the tables,
 // the goals, then the notes file.
 std::string markdown(const Settings& s, const json& result)
@@ -516,7 +628,8 @@ std::string markdown(const Settings& s, const json& result)
     for (const json& size : result["skipped"])
         md << "\nNot run: " << size["box_text"].get<std::string>() << ", " << size["reason"].get<std::string>() << ".\n";
 
-    md << "\n## Mesh quality\n\n"
+    md << "\n" << memory_markdown(s, sizes);
+    md << "## Mesh quality\n\n"
        << "The last run's mesh of each box, against the floors every run checks (`floor_warnings`: no tet below "
        << "aspect ratio 0.1, 99% of the wall nodes with D >= L_min keeping all their layers, and here "
        << "`min_dihedral_deg = 10`) and OpenFOAM's non-orthogonality bound of 70 degrees (measured on the "
@@ -786,6 +899,8 @@ int main(int argc, char** argv)
     app.add_option("--plot", s.plot_path, "PNG of time against output tets")->capture_default_str();
     app.add_option("--doc", s.doc_path, "markdown tables to write (docs/performance.md)");
     app.add_option("--notes", s.notes_path, "markdown appended to --doc");
+    app.add_option("--memory-doc", s.memory_doc_path,
+                   "the memory per stage section of --doc alone, with the fitted model, to write (markdown)");
     app.add_option("--from-json", s.from_json,
                    "write --doc and --plot from earlier result files, measuring nothing; the sizes of later files "
                    "are added to the first's (a large size measured with fewer repeats)");
@@ -819,6 +934,7 @@ int main(int argc, char** argv)
         result["goals"] = goals(s, result["sizes"]);
         write_plot(s, result["sizes"]);
         if (!s.doc_path.empty()) std::ofstream(s.doc_path) << markdown(s, result);
+        if (!s.memory_doc_path.empty()) std::ofstream(s.memory_doc_path) << memory_markdown(s, result["sizes"]);
         return 0;
     }
 
@@ -897,6 +1013,8 @@ int main(int argc, char** argv)
                 std::printf("  %d thread%s: failed: %s\n", t, t == 1 ? "" : "s", run["error"].get<std::string>().c_str());
             }
             size["runs"].push_back(run);
+            if (const std::string table = stage_memory_table(size, run); !table.empty())
+                std::printf("\n%s\n", table.c_str());
         }
         const json* ours = nullptr;
         for (const json& run : size["runs"])
@@ -928,6 +1046,10 @@ int main(int argc, char** argv)
     if (!s.doc_path.empty()) {
         std::ofstream(s.doc_path) << markdown(s, result);
         std::printf("wrote %s\n", s.doc_path.c_str());
+    }
+    if (!s.memory_doc_path.empty()) {
+        std::ofstream(s.memory_doc_path) << memory_markdown(s, result["sizes"]);
+        std::printf("wrote %s\n", s.memory_doc_path.c_str());
     }
     return 0;
 }
