@@ -6,21 +6,48 @@
 // 3.5M), since the method sets element sizes by the feature size, not the
 // voxels. Prints a table and the two goals against the meshing time of the
 // same run, and writes both to JSON (second argument).
+//
+// `bench_export --decompose N [--box B] [--json PATH]` (issue 45): the
+// torus phantom with B voxels across its box (default 512; L_min 0.5 and
+// L_max 12 voxels, as bench_pipeline) meshed once, then its OpenFOAM case
+// written two ways, each timed with the peak resident set while it runs:
+// the N processor meshes written directly (`[output] decompose = N`, as
+// `scalemesh run --decompose N` writes them: the serial polyMesh and the
+// pieces), and the serial polyMesh alone followed by OpenFOAM's
+// `decomposePar` (method simple, N = nx ny nz split as evenly as it goes) in
+// a child process, whose time and peak (wait4) are its own. The writes'
+// peaks are this process's (its peak reset as each starts), so they include
+// the run held in memory, as in `scalemesh run`; what was resident before
+// each is given too. Needs decomposePar on PATH and WM_PROJECT_DIR (set to
+// /usr/share/openfoam when unset).
 
 #include "core/huge_pages.h"
 #include "exporters/polymesh_writer.h"
 #include "exporters/volume_writers.h"
+#include "phantom/phantom.h"
+#include "pipeline/memory_estimate.h"
 #include "pipeline/pipeline.h"
+#include "pipeline/run_case.h"
 
+#include <tbb/global_control.h>
 #include <tbb/task_arena.h>
 
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <iterator>
+#include <sstream>
 #include <string>
+#include <vector>
 
 namespace {
 
@@ -34,11 +61,164 @@ double seconds(const std::function<void()>& work)
     return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
+double mib(double bytes) { return bytes / (1024.0 * 1024.0); }
+
+// N as nx * ny * nz, the factors as close to each other as they go, the
+// largest first (8: 2 2 2; 4: 2 2 1; 6: 3 2 1).
+std::array<int, 3> split_three(int n)
+{
+    std::array<int, 3> best = {n, 1, 1};
+    for (int x = 1; x <= n; ++x)
+        for (int y = 1; y <= n / x; ++y)
+            if (n % (x * y) == 0) {
+                std::array<int, 3> f = {x, y, n / (x * y)};
+                std::sort(f.rbegin(), f.rend());
+                if (f[0] - f[2] < best[0] - best[2]) best = f;
+            }
+    return best;
+}
+
+struct Measured {
+    double seconds = 0;
+    double peak_bytes = 0;   // the peak resident set while it ran
+    double before_bytes = 0; // resident as it started (this process; 0 for a child)
+};
+
+// `work` in this process, its peak reset as it starts.
+Measured measure_here(const std::function<void()>& work)
+{
+    Measured m;
+    reset_peak_resident_memory();
+    if (const auto now = resident_memory()) m.before_bytes = double(now->now_bytes);
+    m.seconds = seconds(work);
+    if (const auto after = resident_memory()) m.peak_bytes = double(after->peak_bytes);
+    return m;
+}
+
+// `decomposePar -case DIR` in a child process, its output in DIR/log.decomposePar;
+// its time and its own peak (wait4). Throws when it fails.
+Measured decompose_par(const std::filesystem::path& dir)
+{
+    std::fflush(stdout);
+    const auto start = Clock::now();
+    const pid_t pid = fork();
+    if (pid < 0) throw std::runtime_error("fork failed");
+    if (pid == 0) {
+        const std::string log = (dir / "log.decomposePar").string();
+        if (!std::freopen(log.c_str(), "w", stdout) || !std::freopen(log.c_str(), "a", stderr)) _exit(127);
+        setenv("WM_PROJECT_DIR", "/usr/share/openfoam", 0);
+        execlp("decomposePar", "decomposePar", "-case", dir.c_str(), static_cast<char*>(nullptr));
+        _exit(127);
+    }
+    int status = 0;
+    rusage usage{};
+    wait4(pid, &status, 0, &usage);
+    Measured m;
+    m.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    m.peak_bytes = static_cast<double>(usage.ru_maxrss) * 1024.0;
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+        throw std::runtime_error("decomposePar failed (status " + std::to_string(status) + "); see " +
+                                 (dir / "log.decomposePar").string());
+    return m;
+}
+
+int decompose_benchmark(int processors, int box, const std::string& json_path)
+{
+    const int threads = 2;
+    const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    Vec3 lo, hi;
+    make_shape("torus", 1.0)->bounds(lo, hi);
+    const double h = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z}) / box;
+    const std::filesystem::path root = std::filesystem::temp_directory_path() / "scalemesh-bench-decompose";
+    std::filesystem::remove_all(root);
+    std::ostringstream toml;
+    toml.precision(17);
+    toml << "[input]\nphantom = \"torus\"\nvoxel_size = " << h << "\n"
+         << "[sizing]\nL_min = \"0.5 voxels\"\nL_max = \"12 voxels\"\n"
+         << "[output]\nsurface = []\nvolume = []\nopenfoam = true\n[run]\nthreads = " << threads << "\n";
+    CaseConfig config = parse_case(toml.str(), root, "benchmark");
+    std::printf("torus, %d voxels across (voxel %.5f mm), %d threads: meshing...\n", box, h, threads);
+    PipelineRun run;
+    const double t_mesh = seconds([&] { run = run_pipeline(config, {.sizing = true, .remesh = true, .volume = true}); });
+    const size_t tets = run.volume->mesh.tets.size();
+    std::printf("%zu tets in %.1f s\n", tets, t_mesh);
+
+    // The pieces directly, as scalemesh run --decompose N.
+    CaseConfig pieces = config;
+    pieces.directory = root / "pieces";
+    pieces.decompose = processors;
+    std::filesystem::create_directories(pieces.directory);
+    CaseOutputs pieces_out;
+    const Measured direct = measure_here([&] { pieces_out = write_case_outputs(pieces, run, {.histograms = false}); });
+
+    // One serial polyMesh, then decomposePar on it.
+    CaseConfig serial = config;
+    serial.directory = root / "serial";
+    serial.decompose = 1;
+    std::filesystem::create_directories(serial.directory);
+    const Measured serial_write = measure_here([&] { (void)write_case_outputs(serial, run, {.histograms = false}); });
+    const std::array<int, 3> n = split_three(processors);
+    std::ofstream(serial.directory / "system" / "decomposeParDict")
+        << "FoamFile\n{\n    version     2.0;\n    format      ascii;\n    class       dictionary;\n"
+           "    object      decomposeParDict;\n}\n\nnumberOfSubdomains " << processors
+        << ";\n\nmethod          simple;\n\nsimpleCoeffs\n{\n    n               (" << n[0] << " " << n[1] << " "
+        << n[2] << ");\n    delta           0.001;\n}\n";
+    const Measured decompose = decompose_par(serial.directory);
+    std::filesystem::remove_all(root);
+
+    struct Row {
+        std::string way;
+        Measured m;
+    };
+    const Measured both = {serial_write.seconds + decompose.seconds, std::max(serial_write.peak_bytes, decompose.peak_bytes),
+                           serial_write.before_bytes};
+    const std::string simple = "decomposePar, method simple (" + std::to_string(n[0]) + " " + std::to_string(n[1]) +
+                               " " + std::to_string(n[2]) + ")";
+    const std::vector<Row> rows = {{"pieces written directly (decompose = " + std::to_string(processors) + ")", direct},
+                                   {"serial polyMesh written", serial_write},
+                                   {simple + ", its own process", decompose},
+                                   {"serial polyMesh, then decomposePar", both}};
+    std::printf("\n%zu tets, %d processor meshes; processor faces written directly: %lld\n\n", tets, processors,
+                static_cast<long long>(pieces_out.decomposition ? pieces_out.decomposition->processor_faces : 0));
+    std::printf("| way | time s | peak RSS MiB | resident before MiB |\n|---|---|---|---|\n");
+    for (const Row& r : rows)
+        std::printf("| %s | %.2f | %.0f | %s |\n", r.way.c_str(), r.m.seconds, mib(r.m.peak_bytes),
+                    r.m.before_bytes > 0 ? std::to_string(std::lround(mib(r.m.before_bytes))).c_str() : "-");
+    std::printf("\nwriting the pieces directly: %.2fx the time of the serial polyMesh and decomposePar\n",
+                direct.seconds / both.seconds);
+
+    std::ofstream json(json_path);
+    json << "{\n  \"box\": " << box << ",\n  \"threads\": " << threads << ",\n  \"tets\": " << tets
+         << ",\n  \"processors\": " << processors << ",\n  \"meshing_seconds\": " << t_mesh << ",\n  \"ways\": [\n";
+    for (size_t i = 0; i < rows.size(); ++i)
+        json << "    {\"way\": \"" << rows[i].way << "\", \"seconds\": " << rows[i].m.seconds
+             << ", \"peak_bytes\": " << rows[i].m.peak_bytes << ", \"resident_before_bytes\": " << rows[i].m.before_bytes
+             << "}" << (i + 1 < rows.size() ? "," : "") << "\n";
+    json << "  ]\n}\n";
+    std::printf("wrote %s\n", json_path.c_str());
+    return 0;
+}
+
 } // namespace
 
 int main(int argc, char** argv)
 {
     scalemesh::restart_with_huge_pages(argv);
+    if (argc > 1 && std::string(argv[1]) == "--decompose") {
+        int processors = 8, box = 512;
+        std::string json_path = "bench-decompose.json";
+        for (int i = 1; i + 1 < argc; i += 2) {
+            const std::string flag = argv[i];
+            if (flag == "--decompose") processors = std::stoi(argv[i + 1]);
+            else if (flag == "--box") box = std::stoi(argv[i + 1]);
+            else if (flag == "--json") json_path = argv[i + 1];
+            else {
+                std::fprintf(stderr, "unknown option %s: bench_export --decompose N [--box B] [--json PATH]\n", argv[i]);
+                return 2;
+            }
+        }
+        return decompose_benchmark(processors, box, json_path);
+    }
     const double h = 0.25, L_max = argc > 1 ? std::stod(argv[1]) : 1.5;
     const std::string json_path = argc > 2 ? argv[2] : "bench-export.json";
     CaseConfig config = parse_case("[input]\nphantom = \"pretzel\"\nvoxel_size = " + std::to_string(h) +
