@@ -508,7 +508,7 @@ std::string stage_memory_table(const json& size, const json& run)
     const double tets = run["tets"];
     std::ostringstream md;
     md << "Memory per stage, " << size["box_text"].get<std::string>() << ", " << run["threads"] << " thread"
-       << (run["threads"] == 1 ? "" : "s") << ", " << number(tets, 4) << " tets:\n\n"
+       << (run["threads"] == 1 ? "" : "s") << ", " << number(tets / 1e6, 4) << "M tets:\n\n"
        << "| stage | peak MiB | peak B/tet | held after MiB | held B/tet |\n|---|---|---|---|---|\n";
     for (const json& m : run["memory_stages"]) {
         const double peak = m["peak_bytes"], held = m["held_after_bytes"];
@@ -523,7 +523,7 @@ std::string stage_memory_table(const json& size, const json& run)
 // boxes), its error at each, and the largest mesh and box 24 and 128 GiB
 // would hold by it (tets growing as the cube of the box, from the largest
 // box measured).
-std::string memory_markdown(const Settings& s, const json& sizes)
+std::string memory_markdown(const Settings& s, const json& sizes, bool with_commands = false)
 {
     struct Point {
         std::string box;
@@ -538,6 +538,7 @@ std::string memory_markdown(const Settings& s, const json& sizes)
        << "what it left resident, per tet of the final mesh; `write` is the outputs (`mesh.msh`, report.json, "
        << "quality.png), its held figure with the whole run still in memory. " << s.threads.back() << " thread"
        << (s.threads.back() == 1 ? "" : "s") << ".\n\n";
+    if (with_commands) md << "Measured and written with:\n\n```sh\n" << s.command << "\n```\n\n";
     for (const json& size : sizes) {
         const json* run = find_run(sizes, size["box"], s.threads.back());
         if (!run) continue;
@@ -557,7 +558,7 @@ std::string memory_markdown(const Settings& s, const json& sizes)
        << "| box | tets | measured peak MiB | model MiB | model error |\n|---|---|---|---|---|\n";
     for (const Point& p : points) {
         const double model = a + b * p.tets;
-        md << "| " << p.box << " | " << number(p.tets, 4) << " | " << mib(p.peak) << " | " << mib(model) << " | "
+        md << "| " << p.box << " | " << number(p.tets / 1e6, 4) << "M | " << mib(p.peak) << " | " << mib(model) << " | "
            << (model >= p.peak ? "+" : "") << fixed(100 * (model - p.peak) / p.peak, 1) << "% |\n";
     }
     const Point& largest = *std::max_element(points.begin(), points.end(),
@@ -934,7 +935,7 @@ int main(int argc, char** argv)
         result["goals"] = goals(s, result["sizes"]);
         write_plot(s, result["sizes"]);
         if (!s.doc_path.empty()) std::ofstream(s.doc_path) << markdown(s, result);
-        if (!s.memory_doc_path.empty()) std::ofstream(s.memory_doc_path) << memory_markdown(s, result["sizes"]);
+        if (!s.memory_doc_path.empty()) std::ofstream(s.memory_doc_path) << memory_markdown(s, result["sizes"], true);
         return 0;
     }
 
@@ -1048,7 +1049,7 @@ int main(int argc, char** argv)
         std::printf("wrote %s\n", s.doc_path.c_str());
     }
     if (!s.memory_doc_path.empty()) {
-        std::ofstream(s.memory_doc_path) << memory_markdown(s, result["sizes"]);
+        std::ofstream(s.memory_doc_path) << memory_markdown(s, result["sizes"], true);
         std::printf("wrote %s\n", s.memory_doc_path.c_str());
     }
     return 0;
