@@ -22,7 +22,7 @@ packages=(
   openfoam python3
   pybind11-dev python3-dev python3-gmsh python3-numpy python3-meshio
   gmsh
-  locales
+  locales time
 )
 missing=()
 for p in "${packages[@]}"; do

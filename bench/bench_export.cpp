@@ -15,11 +15,11 @@
 // `scalemesh run --decompose N` writes them: the serial polyMesh and the
 // pieces), and the serial polyMesh alone followed by OpenFOAM's
 // `decomposePar` (method simple, N = nx ny nz split as evenly as it goes) in
-// a child process, whose time and peak (wait4) are its own. The writes'
+// a child process, whose time and peak (read by /usr/bin/time) are its own. The writes'
 // peaks are this process's (its peak reset as each starts), so they include
 // the run held in memory, as in `scalemesh run`; what was resident before
-// each is given too. Needs decomposePar on PATH and WM_PROJECT_DIR (set to
-// /usr/share/openfoam when unset).
+// each is given too. Needs decomposePar on PATH, /usr/bin/time and
+// WM_PROJECT_DIR (set to /usr/share/openfoam when unset).
 
 #include "core/huge_pages.h"
 #include "exporters/polymesh_writer.h"
@@ -96,10 +96,14 @@ Measured measure_here(const std::function<void()>& work)
 }
 
 // `decomposePar -case DIR` in a child process, its output in DIR/log.decomposePar;
-// its time and its own peak (wait4). Throws when it fails.
+// its time and its own peak. The peak is read by /usr/bin/time, which starts
+// decomposePar from its own small process: the resident set a child of this
+// process reports (wait4) includes the pages it shared with this process
+// between fork and exec, the whole mesh. Throws when it fails.
 Measured decompose_par(const std::filesystem::path& dir)
 {
     std::fflush(stdout);
+    const std::string peak_file = (dir / "peak.decomposePar").string();
     const auto start = Clock::now();
     const pid_t pid = fork();
     if (pid < 0) throw std::runtime_error("fork failed");
@@ -107,18 +111,21 @@ Measured decompose_par(const std::filesystem::path& dir)
         const std::string log = (dir / "log.decomposePar").string();
         if (!std::freopen(log.c_str(), "w", stdout) || !std::freopen(log.c_str(), "a", stderr)) _exit(127);
         setenv("WM_PROJECT_DIR", "/usr/share/openfoam", 0);
-        execlp("decomposePar", "decomposePar", "-case", dir.c_str(), static_cast<char*>(nullptr));
+        execl("/usr/bin/time", "time", "-f", "%M", "-o", peak_file.c_str(), "decomposePar", "-case", dir.c_str(),
+              static_cast<char*>(nullptr));
         _exit(127);
     }
     int status = 0;
-    rusage usage{};
-    wait4(pid, &status, 0, &usage);
+    waitpid(pid, &status, 0);
     Measured m;
     m.seconds = std::chrono::duration<double>(Clock::now() - start).count();
-    m.peak_bytes = static_cast<double>(usage.ru_maxrss) * 1024.0;
     if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-        throw std::runtime_error("decomposePar failed (status " + std::to_string(status) + "); see " +
-                                 (dir / "log.decomposePar").string());
+        throw std::runtime_error("decomposePar failed (status " + std::to_string(status) + "; /usr/bin/time, of the "
+                                 "Debian package time, is needed); see " + (dir / "log.decomposePar").string());
+    std::ifstream in(peak_file);
+    double kib = 0;
+    if (!(in >> kib) || !(kib > 0)) throw std::runtime_error("no peak of decomposePar in " + peak_file);
+    m.peak_bytes = kib * 1024.0;
     return m;
 }
 
