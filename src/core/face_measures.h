@@ -20,9 +20,10 @@ namespace scalemesh {
 // centroid of the tets of the cell across, a lone tet's included; the
 // polyMesh writer OpenFOAM's own centres (primitiveMeshCellCentresAndVols:
 // the face pyramids' centroids weighted by volume), the numbers checkMesh
-// reports. The centres differ in the last bits even where they agree in
-// exact arithmetic (a lone tet), and the passes and the merging decide from
-// them: each keeps its own, so that the meshes they make do not move.
+// reports; the layer stack (layer_stack.cpp) a side face between two of its
+// prisms against the join of their centroids. The centres differ in the
+// last bits even where they agree in exact arithmetic (a lone tet), and each
+// caller decides from its own.
 inline double face_orthogonality_cosine(const Vec3& area, const Vec3& join, double degenerate)
 {
     const double scale = norm(area) * norm(join);

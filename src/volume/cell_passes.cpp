@@ -29,6 +29,7 @@
 namespace scalemesh {
 namespace {
 
+using improvement::CellCentres;
 using improvement::cell_shape;
 using improvement::Criterion;
 using improvement::face_links;
@@ -44,7 +45,6 @@ using improvement::shape_of;
 using improvement::Shape;
 using improvement::ShapeOrder;
 using improvement::shared_face_cosine;
-using improvement::CellCentres;
 using improvement::split_at;
 using improvement::TetEditor;
 using improvement::with_cosine;
@@ -650,11 +650,16 @@ public:
     bool move_point(int32_t v, const LayerBound& layer) const { return orthogonalize_point(ed_, v, layer, order); }
 
 private:
-    // A face between two locked tets (inside a layer prism) is not looked at.
+    // A face between two locked tets (the layer prisms', or across a part's
+    // border) is out of the passes' reach and not looked at, but for a face
+    // between two layer prisms one of which is in the top layer, whose top
+    // points slide.
     double cosine(int32_t t, int32_t u) const
     {
         const auto at = [&](int32_t v) -> const Vec3& { return ed_.point(v); };
-        if (ed_.locked(t) && ed_.locked(u) && !ed_.centres) return 1.0;
+        if (ed_.locked(t) && ed_.locked(u) &&
+            !(ed_.centres && ed_.centres->top_prisms_apart(ed_.tet(t), ed_.tet(u))))
+            return 1.0;
         return shared_face_cosine(at, ed_.tet(t), ed_.tet(u), ed_.centres);
     }
     static bool in_order(const Target& a, const Target& b) { return a.t != b.t ? a.t < b.t : a.k < b.k; }
@@ -738,7 +743,7 @@ public:
     {
         if (params.prism_cells && !params.prism_cells->points.empty()) {
             centres_.prisms = params.prism_cells;
-            centres_.global = part.global;
+            centres_.global = &part.global;
             centres_.stacked.resize(part.global.size());
             for (size_t l = 0; l < part.global.size(); ++l) {
                 centres_.local.emplace(part.global[l], int32_t(l));

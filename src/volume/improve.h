@@ -180,9 +180,6 @@ struct DihedralCounts {
 DihedralCounts raise_dihedral_angles(TetMesh& mesh, int32_t surface_points, double target_deg, int sweeps,
                                      const std::vector<LayerBound>& layers = {}, int32_t locked_tets = 0);
 
-// The schedule of the two passes above as the volume stage runs them
-// (improve_cells): a dihedral pass, then rounds of a non-orthogonality pass
-// and a dihedral pass while either still changes the mesh.
 // The prisms of a layer stack as the cells the solver will see (the
 // `prisms` layers, layer_stack.h): the cell passes measure a face of a
 // prism's tet from the prism's centre, not the tet's, since the prism is
@@ -191,6 +188,7 @@ struct PrismCells {
     std::vector<int32_t> generator, layer;      // per mesh point: its column's wall node and layer; -1 elsewhere
     std::vector<std::array<int32_t, 6>> points; // per prism: its bottom's three points, then its top's, by wall node
     std::vector<Vec3> start;                    // the mesh's points as the passes begin
+    int32_t top_layer = 0;                      // the layer of the stack's top points
     struct KeyHash {
         size_t operator()(const std::array<int32_t, 4>& k) const
         {
@@ -201,6 +199,7 @@ struct PrismCells {
     };
     std::unordered_map<std::array<int32_t, 4>, int64_t, KeyHash> index; // (wall nodes ascending, top layer) -> prism
 
+    bool in_top_layer(int64_t p) const { return layer[points[p][5]] == top_layer; }
     // The prism whose three tets include one with the mesh points g, or -1.
     int64_t prism_of(const std::array<int32_t, 4>& g) const
     {
@@ -226,6 +225,9 @@ struct PrismCells {
     }
 };
 
+// The schedule of the two passes above as the volume stage runs them
+// (improve_cells): a dihedral pass, then rounds of a non-orthogonality pass
+// and a dihedral pass while either still changes the mesh.
 struct CellPassParams {
     double dihedral_target_deg = 12; // degrees: the tets below it are raised (a margin over the floor of 10)
     int dihedral_sweeps = 8;         // sweeps of each dihedral pass

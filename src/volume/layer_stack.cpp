@@ -2,6 +2,7 @@
 
 #include "core/adjacency.h"
 #include "core/errors.h"
+#include "core/face_measures.h"
 #include "volume/layer_prisms.h"
 #include "volume/self_intersections.h"
 
@@ -40,9 +41,6 @@ std::array<Tet, 3> prism_split(const std::array<int32_t, 3>& p, const std::array
 
 namespace {
 
-// Whether the split of a prism is good: each tet positive and at least
-// `fraction` of the three's volume, and the prism star-shaped from its
-// centroid as the export asks of a prism cell (layer_prisms.h).
 // A prism's centroid: its split's tets' centroids weighted by their volumes.
 Vec3 split_centroid(const std::array<Tet, 3>& tets, const std::vector<Vec3>& at)
 {
@@ -56,6 +54,9 @@ Vec3 split_centroid(const std::array<Tet, 3>& tets, const std::vector<Vec3>& at)
     return total != 0 ? sum / total : (at[tets[0][0]] + at[tets[2][3]]) / 2;
 }
 
+// Whether the split of a prism is good: each tet positive and at least
+// `fraction` of the three's volume, and the prism star-shaped from its
+// centroid as the export asks of a prism cell (layer_prisms.h).
 bool good_split(const std::array<Tet, 3>& tets, const std::vector<Vec3>& at, double fraction, bool star = true)
 {
     double v[3], total = 0;
@@ -259,24 +260,36 @@ LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizi
     // layer (where the wall curves, the columns' directions part or cross),
     // so its non-orthogonality grows with the layer. Where a side face
     // would be beyond max_side_non_orthogonality_deg, both prisms' columns
-    // are shortened (thinner layers turn less); never made holes for it.
+    // are shortened (thinner layers turn less), in the rounds before
+    // relax_round; never made holes for it. An edge whose first layer is
+    // already beyond the bound is left alone: the first layer keeps its
+    // thickness, and a skewed pair of wall triangles keeps its angle however
+    // thin the layers are.
     const EdgeFaces edges = wall_edge_faces(surface, walls);
     const double side_cosine = std::cos(params.max_side_non_orthogonality_deg * M_PI / 180);
     std::vector<char> side_poor(walls.size(), 0);
+    const auto side_face_cosine = [&](size_t w, int32_t o, int32_t a, int32_t b, int32_t m) {
+        const Vec3 join = split_centroid(split(walls[o], m), at) - split_centroid(split(walls[w], m), at);
+        const Vec3 p0 = at[point(a, m - 1)], p1 = at[point(b, m - 1)], p2 = at[point(b, m)], p3 = at[point(a, m)];
+        // The quad's area vector, turned from w's side to o's as the wall
+        // triangles lie.
+        Vec3 area = cross(p2 - p0, p3 - p1);
+        const Triangle &tw = surface.triangles[walls[w]], &to = surface.triangles[walls[o]];
+        const Vec3 across = (surface.points[to[0]] + surface.points[to[1]] + surface.points[to[2]]) -
+                            (surface.points[tw[0]] + surface.points[tw[1]] + surface.points[tw[2]]);
+        if (dot(area, across) < 0) area = -area;
+        return face_orthogonality_cosine(area, join, -1.0);
+    };
     const auto check_sides = [&](size_t w) {
         const Triangle& t = surface.triangles[walls[w]];
         for (int k = 0; k < 3; ++k) {
             const int32_t a = t[k], b = t[(k + 1) % 3], o = edges.other(a, b);
-            if (o < 0) continue;
-            for (int32_t m = 1; m <= L; ++m) {
-                const Vec3 join = split_centroid(split(walls[o], m), at) - split_centroid(split(walls[w], m), at);
-                const Vec3 p0 = at[point(a, m - 1)], p1 = at[point(b, m - 1)], p2 = at[point(b, m)], p3 = at[point(a, m)];
-                const Vec3 area = cross(p2 - p0, p3 - p1);
-                if (!(std::abs(dot(area, join)) >= side_cosine * norm(area) * norm(join))) {
+            if (o < 0 || side_face_cosine(w, o, a, b, 1) < side_cosine) continue;
+            for (int32_t m = 2; m <= L; ++m)
+                if (side_face_cosine(w, o, a, b, m) < side_cosine) {
                     side_poor[w] = 1;
                     return;
                 }
-            }
         }
     };
     for (size_t w = 0; w < walls.size(); ++w)
@@ -311,7 +324,7 @@ LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizi
         const SelfIntersections crossing = self_intersections(top, size_t(1) << 20);
         for (const auto& pair : crossing.first) poor[pair[0]] = poor[pair[1]] = 1;
         std::fill(side_poor.begin(), side_poor.end(), 0);
-        tbb::parallel_for(size_t(0), walls.size(), check_sides);
+        if (stack.rounds < params.relax_round) tbb::parallel_for(size_t(0), walls.size(), check_sides);
         const bool any_poor = std::find(poor.begin(), poor.end(), 1) != poor.end();
         const bool any_side = std::find(side_poor.begin(), side_poor.end(), 1) != side_poor.end();
         if ((!any_poor && !any_side) || stack.rounds == params.max_rounds) break;

@@ -57,19 +57,28 @@ private:
 // are now; a point the part does not hold where the passes began).
 struct CellCentres {
     const PrismCells* prisms = nullptr;
-    std::vector<int32_t> global;                 // part point -> mesh point
+    const std::vector<int32_t>* global = nullptr; // part point -> mesh point
     std::unordered_map<int32_t, int32_t> local;  // mesh point -> part point
     std::vector<char> stacked;                   // per part point: a wall node or a layer point
+    // The prism whose tet x is (its index in `prisms`), or -1.
+    int64_t prism_of(const Tet& x) const
+    {
+        if (!prisms) return -1;
+        for (int32_t v : x)
+            if (size_t(v) >= stacked.size() || !stacked[v]) return -1;
+        return prisms->prism_of({(*global)[x[0]], (*global)[x[1]], (*global)[x[2]], (*global)[x[3]]});
+    }
+    // Whether tets x and y are two prisms' of which one is in the top layer.
+    bool top_prisms_apart(const Tet& x, const Tet& y) const
+    {
+        const int64_t p = prism_of(x), q = prism_of(y);
+        return p >= 0 && q >= 0 && p != q && (prisms->in_top_layer(p) || prisms->in_top_layer(q));
+    }
     // The cell's key (its prism's index) and centre, when tet x is a prism's.
     template <class At>
     bool of(const Tet& x, const At& at, Vec3& centre, int64_t* key = nullptr) const
     {
-        if (!prisms) return false;
-        for (int32_t v : x)
-            if (size_t(v) >= stacked.size() || !stacked[v]) return false;
-        std::array<int32_t, 4> g;
-        for (int k = 0; k < 4; ++k) g[k] = global[x[k]];
-        const int64_t p = prisms->prism_of(g);
+        const int64_t p = prism_of(x);
         if (p < 0) return false;
         const auto position = [&](int32_t v) -> Vec3 {
             const auto it = local.find(v);
@@ -273,9 +282,12 @@ double volume_floor6(const TetEditor& ed, const Tets& tets)
 
 // The cosine of OpenFOAM's non-orthogonality of the face of tet t opposite
 // its corner k, shared with the tet `other`: the face's normal (out of t)
-// against the join of the two centroids, points read through at(id); -2
-// (below any cosine) when the face or the join is degenerate. The one
-// measure of the cell passes (cell_passes.cpp) and of points_missing_floors.
+// against the join of the two cells' centres, points read through at(id);
+// -2 (below any cosine) when the face or the join is degenerate. A tet's
+// cell is itself (its centre its centroid), or with `centres` the layer
+// prism it fills (the prism's centre); 1 for two tets of one prism. The
+// measure of the cell passes (cell_passes.cpp); points_missing_floors, which
+// picks the cells for the passes' last round, measures tets alone.
 template <class At>
 double face_cosine(const At& at, const Tet& t, int k, const Tet& other, const CellCentres* centres = nullptr)
 {
@@ -337,9 +349,12 @@ std::vector<FaceLink> face_links(TetEditor& ed, const Tets& tets, const Old& old
 }
 
 // The smallest cosine of OpenFOAM's face non-orthogonality (the angle
-// between an interior face's normal and the join of its two tets'
-// centroids, the cell centres of a tet) over the faces `links` of `tets`,
-// with the points where they are now. -1 when a join or a face is degenerate.
+// between an interior face's normal and the join of its two cells'
+// centres, face_cosine with the editor's `centres`) over the faces `links`
+// of `tets`, with the points where they are now. -1 when a join or a face is
+// degenerate. A move of a layer prism's top point is judged on the faces of
+// its own tets; the faces of its prisms' other tets, whose centre it moves
+// too, are left to the export's checks on the cells.
 template <class Tets>
 double worst_cosine(const TetEditor& ed, const Tets& tets, const std::vector<FaceLink>& links)
 {

@@ -298,6 +298,7 @@ void improve_joined(TetMesh& mesh, const SurfaceMesh& surface, const LayerStack&
         prisms.points.push_back({six[0], six[1], six[2], six[3], six[4], six[5]});
     }
     prisms.start = mesh.points;
+    prisms.top_layer = L;
     CellPassParams cell_params;
     cell_params.prism_cells = &prisms;
     const auto cell_passes = Clock::now();

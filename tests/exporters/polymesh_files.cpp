@@ -53,6 +53,10 @@ std::vector<std::vector<int32_t>> read_face_list(const std::filesystem::path& fi
     const std::vector<int64_t> v = read_numbers(file);
     std::vector<std::vector<int32_t>> faces;
     for (size_t at = 1; at < v.size(); at += static_cast<size_t>(v[at]) + 1) {
+        if (v[at] < 1) {
+            ADD_FAILURE() << file << ": a face of " << v[at] << " points";
+            break;
+        }
         const size_t end = std::min(v.size(), at + static_cast<size_t>(v[at]) + 1);
         faces.emplace_back(v.begin() + static_cast<std::ptrdiff_t>(at) + 1, v.begin() + static_cast<std::ptrdiff_t>(end));
     }

@@ -313,8 +313,9 @@ TEST(LayerStack, SideFacesBetweenPrismsStayWithinTheBound)
     EXPECT_EQ(stack.holes, 0);
     EXPECT_LE(worst_side_face_deg(surface, stack), bounded.max_side_non_orthogonality_deg + 1e-9);
     EXPECT_GT(stack.shortened_nodes, 0);
-    // Shortened, not emptied: every column keeps its three layers.
-    for (int32_t v = 0; v < 4; ++v) EXPECT_GE(stack.first[v], 0) << v;
+    // Shortened, not to the floor: the columns keep more than min_scale of
+    // their height.
+    for (int32_t v = 0; v < 4; ++v) EXPECT_GT(stack.scale[v], bounded.min_scale) << v;
 }
 
 TEST(LayerStack, TheCellPassesMeasureAPrismsFaceFromThePrismsCentre)
@@ -335,7 +336,8 @@ TEST(LayerStack, TheCellPassesMeasureAPrismsFaceFromThePrismsCentre)
     prisms.start = x;
     improvement::CellCentres centres;
     centres.prisms = &prisms;
-    centres.global = {0, 1, 2, 3, 4, 5, 6};
+    const std::vector<int32_t> global = {0, 1, 2, 3, 4, 5, 6};
+    centres.global = &global;
     for (int32_t v = 0; v < 7; ++v) centres.local[v] = v;
     centres.stacked = {1, 1, 1, 1, 1, 1, 0};
     const auto at = [&](int32_t v) -> const Vec3& { return x[v]; };
