@@ -9,6 +9,7 @@
 
 #include "api/run_state.h"
 #include "core/errors.h"
+#include "core/nearest_triangle.h"
 #include "core/surface_mesh.h"
 #include "exporters/gmsh_session.h"
 #include "importers/image_importer.h"
@@ -244,91 +245,22 @@ SurfaceMesh checked_surface(const SurfaceInput& in)
     return mesh;
 }
 
-double point_triangle_distance2(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c)
-{
-    // Ericson, Real-Time Collision Detection, 5.1.5: the closest point by
-    // Voronoi regions of the triangle.
-    const Vec3 ab = b - a, ac = c - a, ap = p - a;
-    const double d1 = dot(ab, ap), d2 = dot(ac, ap);
-    if (d1 <= 0 && d2 <= 0) return norm2(ap);
-    const Vec3 bp = p - b;
-    const double d3 = dot(ab, bp), d4 = dot(ac, bp);
-    if (d3 >= 0 && d4 <= d3) return norm2(bp);
-    const double vc = d1 * d4 - d3 * d2;
-    if (vc <= 0 && d1 >= 0 && d3 <= 0) return norm2(ap - ab * (d1 / (d1 - d3)));
-    const Vec3 cp = p - c;
-    const double d5 = dot(ab, cp), d6 = dot(ac, cp);
-    if (d6 >= 0 && d5 <= d6) return norm2(cp);
-    const double vb = d5 * d2 - d1 * d6;
-    if (vb <= 0 && d2 >= 0 && d6 <= 0) return norm2(ap - ac * (d2 / (d2 - d6)));
-    const double va = d3 * d6 - d5 * d4;
-    if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) return norm2(bp - (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))));
-    const double denom = 1 / (va + vb + vc);
-    return norm2(ap - ab * (vb * denom) - ac * (vc * denom));
-}
-
-// The label of the input triangle nearest each boundary triangle's centroid,
-// found in a uniform grid of the input triangles' bounding boxes, searched in
-// growing shells until no nearer triangle can remain.
+// The label of the input triangle nearest each boundary triangle's centroid.
 std::vector<int32_t> nearest_labels(const SurfaceMesh& input, const std::vector<int32_t>& labels,
                                     const MeshResult& mesh)
 {
-    Vec3 lo, hi;
-    bounding_box(input, lo, hi);
-    const Vec3 extent = hi - lo;
-    const double volume = std::max(extent.x, 1e-12) * std::max(extent.y, 1e-12) * std::max(extent.z, 1e-12);
-    // About two triangles per cell.
-    const double cell = std::max(std::cbrt(2 * volume / static_cast<double>(input.triangles.size())),
-                                 1e-9 * std::max({extent.x, extent.y, extent.z, 1.0}));
-    std::array<int64_t, 3> dims;
-    for (int k = 0; k < 3; ++k) dims[k] = std::max<int64_t>(1, static_cast<int64_t>(std::ceil(extent[k] / cell)));
-    const auto coord = [&](double x, int k) {
-        return std::clamp<int64_t>(static_cast<int64_t>(std::floor((x - lo[k]) / cell)), 0, dims[k] - 1);
-    };
-    const auto index = [&](int64_t i, int64_t j, int64_t k) { return (k * dims[1] + j) * dims[0] + i; };
-    std::vector<std::vector<int32_t>> cells(static_cast<size_t>(dims[0] * dims[1] * dims[2]));
-    for (size_t t = 0; t < input.triangles.size(); ++t) {
-        Vec3 tlo = input.points[input.triangles[t][0]], thi = tlo;
-        for (int32_t v : input.triangles[t])
-            for (int k = 0; k < 3; ++k) {
-                tlo[k] = std::min(tlo[k], input.points[v][k]);
-                thi[k] = std::max(thi[k], input.points[v][k]);
-            }
-        for (int64_t k = coord(tlo.z, 2); k <= coord(thi.z, 2); ++k)
-            for (int64_t j = coord(tlo.y, 1); j <= coord(thi.y, 1); ++j)
-                for (int64_t i = coord(tlo.x, 0); i <= coord(thi.x, 0); ++i)
-                    cells[index(i, j, k)].push_back(static_cast<int32_t>(t));
-    }
-    std::vector<int32_t> out(mesh.boundary_count());
-    for (size_t f = 0; f < out.size(); ++f) {
+    std::vector<Vec3> centroids(mesh.boundary_count());
+    for (size_t f = 0; f < centroids.size(); ++f) {
         Vec3 centroid{0, 0, 0};
         for (int c = 0; c < 3; ++c) {
             const size_t v = mesh.boundary_triangles[3 * f + c];
             centroid = centroid + Vec3{mesh.points[3 * v], mesh.points[3 * v + 1], mesh.points[3 * v + 2]} * (1.0 / 3);
         }
-        const int64_t ci = coord(centroid.x, 0), cj = coord(centroid.y, 1), ck = coord(centroid.z, 2);
-        double best = std::numeric_limits<double>::infinity();
-        int32_t best_triangle = 0;
-        const int64_t max_shell = std::max({dims[0], dims[1], dims[2]});
-        for (int64_t r = 0; r <= max_shell; ++r) {
-            for (int64_t k = ck - r; k <= ck + r; ++k)
-                for (int64_t j = cj - r; j <= cj + r; ++j)
-                    for (int64_t i = ci - r; i <= ci + r; ++i) {
-                        if (std::max({std::abs(i - ci), std::abs(j - cj), std::abs(k - ck)}) != r) continue;
-                        if (i < 0 || j < 0 || k < 0 || i >= dims[0] || j >= dims[1] || k >= dims[2]) continue;
-                        for (int32_t t : cells[index(i, j, k)]) {
-                            const Triangle& tri = input.triangles[t];
-                            const double d2 = point_triangle_distance2(centroid, input.points[tri[0]],
-                                                                       input.points[tri[1]], input.points[tri[2]]);
-                            if (d2 < best || (d2 == best && t < best_triangle)) best = d2, best_triangle = t;
-                        }
-                    }
-            // Every triangle not yet seen lies outside the searched shells,
-            // at least r cells from the centroid's cell.
-            if (best <= (r * cell) * (r * cell)) break;
-        }
-        out[f] = labels[best_triangle];
+        centroids[f] = centroid;
     }
+    std::vector<int32_t> out;
+    out.reserve(centroids.size());
+    for (int32_t t : nearest_triangles(input, centroids)) out.push_back(labels[t]);
     return out;
 }
 
