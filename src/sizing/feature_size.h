@@ -5,6 +5,7 @@
 // optional curvature term of section 4 eq. (12), then clamping and gradient
 // limiting into the feature size d.
 
+#include "core/feature_size.h"
 #include "core/surface_mesh.h"
 
 #include <cstdint>
@@ -23,17 +24,6 @@ struct SizingParams {
     int threads = 0;             // ray casting threads; 0 = TBB default
 };
 
-struct FeatureSize {
-    std::vector<double> D;     // mm, raw local diameter (with the curvature term when enabled)
-    std::vector<double> D_out; // mm, outward local diameter, +infinity where the ray escapes
-    std::vector<double> d;     // mm, feature size after Algorithm 1
-    std::vector<Vec3> normals; // outward unit synthetic normals, eq. (6)
-    std::vector<char> inward_ok; // 1 where the normal passed the inward check
-    int64_t escaped_inward_rays = 0; // inward rays that leaked out (D = L_max there)
-    double seconds_rays = 0;   // ray casting wall time
-    double seconds_bvh = 0;    // BVH build wall time
-    double seconds_limit = 0;  // Algorithm 1 wall time
-};
 
 // Algorithm 1 exactly: d = D; d = min(L_max, d); d = max(L_min, d);
 // d = min(d, 2 (M/K) D_out); then gradient limiting over the directed surface

@@ -6,8 +6,8 @@
 // put them; for a node short of floor(M/2), the first missing layer's fate
 // says why.
 
+#include "core/feature_size.h"
 #include "core/surface_mesh.h"
-#include "sizing/feature_size.h"
 #include "volume/offset_points.h"
 
 #include <array>

@@ -4,8 +4,8 @@
 // section 4.
 
 #include "core/adjacency.h"
+#include "core/feature_size.h"
 #include "core/surface_mesh.h"
-#include "sizing/feature_size.h"
 
 #include <cstdint>
 #include <optional>

@@ -11,9 +11,9 @@
 //   -> sliver removal (own design, see improve.h)
 
 #include "core/errors.h"
+#include "core/feature_size.h"
 #include "core/surface_mesh.h"
 #include "core/tet_mesh.h"
-#include "sizing/feature_size.h"
 #include "volume/layer_account.h"
 #include "volume/quality.h"
 
