@@ -12,7 +12,7 @@
 include(CMakePackageConfigHelpers)
 
 set(SCALEMESH_CMAKE_DIR "${CMAKE_INSTALL_LIBDIR}/cmake/scalemesh")
-set(scalemesh_stage_libraries core phantom isosurface smoothing sizing remeshing volume openings surface_io gmsh_session exporters
+set(scalemesh_stage_libraries core phantom isosurface smoothing sizing remeshing volume openings surface_io gmsh_io exporters
     importers pipeline)
 
 install(TARGETS scalemesh RUNTIME DESTINATION "${CMAKE_INSTALL_BINDIR}")

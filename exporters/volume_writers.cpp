@@ -2,7 +2,7 @@
 
 #include "core/atomic_file.h"
 #include "core/errors.h"
-#include "exporters/gmsh_session.h"
+#include "gmsh_io/gmsh_session.h"
 
 #include <gmsh.h>
 

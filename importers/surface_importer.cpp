@@ -1,7 +1,7 @@
 #include "importers/surface_importer.h"
 
 #include "core/errors.h"
-#include "exporters/msh_reader.h"
+#include "gmsh_io/msh_reader.h"
 #include "importers/msh_check.h"
 #include "importers/polygon_soup.h"
 #include "importers/stl_importer.h"

@@ -31,7 +31,7 @@ double unit_to_mm(const std::string& unit);
 //         zlib-compressed or not, UInt32 or UInt64 headers, little- or
 //         big-endian; every Piece's Polys merged (Verts, Lines, Strips are
 //         refused)
-//   .msh  Gmsh MSH 2.2 or 4.1: every 3-node triangle (exporters/msh_reader.h);
+//   .msh  Gmsh MSH 2.2 or 4.1: every 3-node triangle (gmsh_io/msh_reader.h);
 //         physical groups are not kept
 // Polygons with more than three corners are split into a fan of triangles
 // from their first corner.

@@ -11,7 +11,7 @@
 #include "core/errors.h"
 #include "core/nearest_triangle.h"
 #include "core/surface_mesh.h"
-#include "exporters/gmsh_session.h"
+#include "gmsh_io/gmsh_session.h"
 #include "importers/image_importer.h"
 #include "pipeline/case_config.h"
 #include "pipeline/pipeline.h"

@@ -1,7 +1,7 @@
 // mesh_gmsh_model (include/scalemesh/gmsh_model.h): the current Gmsh model's
 // triangles read through the Gmsh API, meshed by mesh_surface, and the mesh
 // added back to the model. The host owns the Gmsh session, so nothing here
-// goes through exporters/gmsh_session.h (which would initialise and finalise
+// goes through gmsh_io/gmsh_session.h (which would initialise and finalise
 // Gmsh around the call), and mesh_surface's pipeline reads its scratch
 // surface as PLY, never through Gmsh.
 //
@@ -12,7 +12,7 @@
 
 #include "api/run_state.h"
 #include "core/errors.h"
-#include "exporters/gmsh_session.h"
+#include "gmsh_io/gmsh_session.h"
 
 #include <gmsh.h>
 

@@ -10,8 +10,8 @@
 
 #include "api/run_state.h"
 #include "core/errors.h"
-#include "exporters/gmsh_session.h"
 #include "exporters/volume_writers.h"
+#include "gmsh_io/gmsh_session.h"
 #include "pipeline/run_case.h"
 
 #include <tbb/task_arena.h>

@@ -3,13 +3,13 @@
 // interrupt removes every output still being written. Progress goes to stderr
 // (cli/progress.h).
 
+#include "cli/progress.h"
 #include "core/atomic_file.h"
 #include "core/errors.h"
 #include "core/huge_pages.h"
 #include "core/version.h"
-#include "cli/progress.h"
-#include "exporters/msh_reader.h"
 #include "exporters/surface_writers.h"
+#include "gmsh_io/msh_reader.h"
 #include "importers/surface_importer.h"
 #include "importers/vdb_importer.h"
 #include "phantom/phantom.h"

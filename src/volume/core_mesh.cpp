@@ -1,7 +1,7 @@
 #include "volume/core_mesh.h"
 
 #include "core/errors.h"
-#include "exporters/gmsh_session.h"
+#include "gmsh_io/gmsh_session.h"
 
 #include <gmsh.h>
 

@@ -22,7 +22,7 @@ namespace scalemesh {
 // Throws StageError naming what Gmsh reported when it cannot mesh the
 // region or changes its boundary.
 //
-// Runs in a GmshSession (exporters/gmsh_session.h): one of its own, or
+// Runs in a GmshSession (gmsh_io/gmsh_session.h): one of its own, or
 // inside an open one (the host's, adopted by mesh_gmsh_model), on a scratch
 // model removed at the end, the caller's model current again and the
 // options it set restored. One call at a time (Gmsh is not reentrant).

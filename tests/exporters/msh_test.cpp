@@ -1,7 +1,7 @@
 #include "core/errors.h"
-#include "exporters/gmsh_session.h"
-#include "exporters/msh_reader.h"
 #include "exporters/surface_writers.h"
+#include "gmsh_io/gmsh_session.h"
+#include "gmsh_io/msh_reader.h"
 #include "support/gmsh_host.h"
 #include "test_support.h"
 

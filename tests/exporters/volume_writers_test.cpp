@@ -2,9 +2,9 @@
 // through gmshToFoam and through our polyMesh writer measured alike by checkMesh.
 
 #include "core/errors.h"
-#include "exporters/gmsh_session.h"
 #include "exporters/polymesh_writer.h"
 #include "exporters/volume_writers.h"
+#include "gmsh_io/gmsh_session.h"
 #include "openfoam_support.h"
 #include "tet_meshes.h"
 

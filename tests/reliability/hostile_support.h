@@ -7,7 +7,7 @@
 #include "cli/cli_support.h"
 #include "core/surface_mesh.h"
 #include "core/tet_mesh.h"
-#include "exporters/msh_reader.h"
+#include "gmsh_io/msh_reader.h"
 #include "volume/volume_mesh.h"
 
 #include <gtest/gtest.h>

@@ -5,7 +5,7 @@
 #include "volume/core_mesh.h"
 
 #include "core/tet_mesh.h"
-#include "exporters/gmsh_session.h"
+#include "gmsh_io/gmsh_session.h"
 #include "support/gmsh_host.h"
 
 #include <gmsh.h>

@@ -1,7 +1,7 @@
-#include "exporters/msh_reader.h"
+#include "gmsh_io/msh_reader.h"
 
 #include "core/errors.h"
-#include "exporters/gmsh_session.h"
+#include "gmsh_io/gmsh_session.h"
 
 #include <gmsh.h>
 

@@ -1,4 +1,4 @@
-#include "exporters/gmsh_session.h"
+#include "gmsh_io/gmsh_session.h"
 
 #include "core/atomic_file.h"
 #include "core/errors.h"
