@@ -65,7 +65,7 @@ struct CaseConfig {
     // [volume], Algorithms 4 and 5, section 2.4.
     bool volume = true;             // build the layered volume mesh
     double growth = 1.0;            // layer thickness ratio, >= 1; 1 = uniform layers as in the paper
-    LayerMode layers = LayerMode::delaunay; // "delaunay": the paper's layers; "prisms": prism layers built explicitly
+    LayerMode layers = LayerMode::prisms; // "prisms": prism layers built explicitly; "delaunay": the paper's layers
     FirstLayer first_layer = FirstLayer::edge; // "edge": mean surface edge length / K; "paper": lambda_1 d
     double layer_tolerance = 0.15;  // fraction of its layer spacing a layermaking point may move and still count
     // The run's own floors: missing one is a warning (stderr, report.json),

@@ -723,7 +723,8 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
     // surface is refined there (d reduced around the failing nodes) and
     // remeshed, and the volume stage re-run, a bounded number of times.
     std::vector<double> d = run.sizing->d;
-    for (int attempt = 0;; ++attempt) {
+    run.layers = config.layers;
+    for (int attempt = 0;; ++attempt) try {
         {
             StageClock clock(run, listener, attempt == 0 ? "remeshing" : "remeshing (retry " + std::to_string(attempt) + ")");
             run.remeshed = remesh_to_feature_size(run.surface, d, remesh);
@@ -748,7 +749,7 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
                                .first_layer = config.first_layer,
                                .K = config.K,
                                .L_max = run.L_max,
-                               .prism_columns = config.layers == LayerMode::prisms ? &volume.rim_columns : nullptr});
+                               .prism_columns = run.layers == LayerMode::prisms ? &volume.rim_columns : nullptr});
             }
             if (!run.caps.empty())
                 if (const std::string crossing =
@@ -792,6 +793,22 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
         if (flips > 0) summary << "; " << flips << " surface diagonals flipped";
         clock.done(summary.str());
         return run;
+    } catch (const StageError& e) {
+        // Prism layers that cannot be built (a cap whose rim columns stay
+        // poor, a core Gmsh refuses) give way to the paper's layers, which
+        // need no columns; the run says so. Any other failure recurs there.
+        if (run.layers != LayerMode::prisms || dynamic_cast<const VolumeConformityError*>(&e)) throw;
+        run.layers = LayerMode::delaunay;
+        run.layer_fallback = e.what();
+        run.warnings.push_back(std::string("the prism layers could not be built (") + e.what() +
+                               "); the method paper's Delaunay layers were built instead, with fewer wall "
+                               "faces x layers intact as prism cells ([volume] layers = \"delaunay\" asks for "
+                               "them directly)");
+        volume.layers = LayerMode::delaunay;
+        volume.rim_columns.clear();
+        d = run.sizing->d;
+        run.refinements.clear();
+        attempt = -1;
     }
 }
 

@@ -72,6 +72,10 @@ struct PipelineRun {
     double L_min = 0, L_max = 0;  // mm, as used by sizing
     std::optional<RemeshResult> remeshed; // the surface remeshed to K/M d, with its stable d
     std::optional<VolumeResult> volume;   // the layered tet mesh inside the remeshed surface
+    // The layers built: the case's, or the paper's Delaunay layers where the
+    // prism layers asked for could not be built (layer_fallback says why).
+    LayerMode layers = LayerMode::delaunay;
+    std::string layer_fallback;
     struct Refinement {
         int attempt;              // 1 for the first retry
         int64_t failing_nodes;    // surface nodes the volume stage named

@@ -93,7 +93,7 @@ nlohmann::json layers_json(const LayerAccount& a, const SurfaceMesh& surface, co
                              {"opening_nodes", opening}});
     }
     return {{"layermaking", a.layermaking},
-            {"tolerance", a.tolerance},
+            {"tolerance", std::isfinite(a.tolerance) ? nlohmann::json(a.tolerance) : nlohmann::json(nullptr)},
             {"wall_nodes", a.wall_nodes},
             {"wall_nodes_with_all_layers", a.wall_full},
             {"eligible_wall_nodes", a.eligible_nodes},
@@ -205,7 +205,7 @@ std::vector<std::string> floor_warnings(const CaseConfig& config, const Pipeline
                       static_cast<long long>(a.eligible_full), static_cast<long long>(a.eligible_nodes), a.layermaking,
                       100 * a.coverage(), 100 * config.min_layer_coverage, why.c_str());
         std::string warning = line;
-        if (config.layers == LayerMode::prisms) {
+        if (run.layers == LayerMode::prisms) {
             // "moved" there means a shortened column: say what the columns hold.
             std::snprintf(line, sizeof line,
                           "; as prism layers, %lld of them have a column of all %d layers, at %.2f of the height "
@@ -415,7 +415,10 @@ std::string report_json(const CaseConfig& config, const PipelineRun& run, const 
                                   {"below_0_02", q.below_0_02},
                                   {"aspect_ratio_histogram_20_bins", q.histogram}};
         };
-        report["volume"] = {{"points", v.mesh.points.size()},
+        report["volume"] = {{"layers_built", run.layers == LayerMode::prisms ? "prisms" : "delaunay"},
+                            {"layer_fallback", run.layer_fallback.empty() ? nlohmann::json()
+                                                                          : nlohmann::json(run.layer_fallback)},
+                            {"points", v.mesh.points.size()},
                             {"tets", v.mesh.tets.size()},
                             {"volume_mm3", facts.volume},
                             {"enclosed_volume_mm3", signed_volume(run.remeshed->surface)},
@@ -492,6 +495,8 @@ std::string report_json(const CaseConfig& config, const PipelineRun& run, const 
                                result.tet_cells ? nlohmann::json(result.tet_cells->min_dihedral_deg) : nlohmann::json()},
                               {"tet_cells_min_aspect_ratio",
                                result.tet_cells ? nlohmann::json(result.tet_cells->min_aspect_ratio) : nlohmann::json()},
+                              {"tet_cells_fraction_below_0_1",
+                               result.tet_cells ? nlohmann::json(result.tet_cells->fraction_below_0_1) : nlohmann::json()},
                               {"checks",
                                {{"max_skewness", checks.max_skewness},
                                 {"min_pyramid_height", checks.min_pyramid_height},
@@ -705,7 +710,7 @@ CaseOutputs write_case_outputs(const CaseConfig& config, const PipelineRun& run,
     // With layers = "prisms" written as prism cells, the cell floors are
     // judged on the cells the solver gets (below): a layer prism's own
     // tets are flat by design and never reach it.
-    const bool prism_cells = config.layers == LayerMode::prisms && config.openfoam && config.layer_prisms;
+    const bool prism_cells = run.layers == LayerMode::prisms && config.openfoam && config.layer_prisms;
     result.warnings = floor_warnings(config, run, prism_cells);
     result.input_warnings = std::min(run.warnings.size(), result.warnings.size());
     result.orphaned_partials = request.orphaned_partials;
@@ -763,7 +768,7 @@ CaseOutputs write_case_outputs(const CaseConfig& config, const PipelineRun& run,
             // non-orthogonality alone: its three tets are flatter (their
             // faces further off) than the prism they fill; it is split where
             // checkMesh would fail it (`check`), or for a face at 89 degrees.
-            const double prism_bound = config.layers == LayerMode::prisms ? 89.0 : 68.0;
+            const double prism_bound = run.layers == LayerMode::prisms ? 89.0 : 68.0;
             // With layers = "prisms", a tet cell below the aspect-ratio or
             // dihedral floor or on a face beyond 69.5 degrees (a sliver the
             // core's tets leave in a crease of the layers' top, pinned by the
@@ -776,7 +781,7 @@ CaseOutputs write_case_outputs(const CaseConfig& config, const PipelineRun& run,
             if (config.layer_prisms) {
                 cells = checked_layer_prism_cells(mesh, v.adjacency, v.point_generator, v.point_layer, v.point_filler,
                                                   prism_bound, check,
-                                                  config.layers == LayerMode::prisms ? &poor : nullptr);
+                                                  run.layers == LayerMode::prisms ? &poor : nullptr);
             } else {
                 cells.cells = static_cast<int32_t>(mesh.tets.size());
                 cells.cell_of_tet.resize(mesh.tets.size());

@@ -65,6 +65,22 @@ TetMesh mesh_core(const SurfaceMesh& boundary, const std::vector<Vec3>& inside)
     session.set_option("Mesh.Algorithm3D", 1); // Delaunay
     session.set_option("Mesh.Optimize", 1);
     session.set_option("Mesh.OptimizeThreshold", 0.3);
+    // The options that shape the tets, at Gmsh's defaults whatever a host's
+    // session set for its own model (a host meshing its surface with
+    // Mesh.MeshSizeMax would otherwise size the core too): the same core
+    // from the command line and inside a host.
+    session.set_option("Mesh.MeshSizeMax", 1e22);
+    session.set_option("Mesh.MeshSizeMin", 0);
+    session.set_option("Mesh.MeshSizeFactor", 1);
+    session.set_option("Mesh.MeshSizeFromPoints", 1);
+    session.set_option("Mesh.MeshSizeFromCurvature", 0);
+    session.set_option("Mesh.MeshSizeExtendFromBoundary", 1);
+    session.set_option("Mesh.OptimizeNetgen", 0);
+    session.set_option("Mesh.ElementOrder", 1);
+    session.set_option("Mesh.Smoothing", 1);
+    session.set_option("Mesh.RandomFactor3D", 1e-12);
+    session.set_option("Mesh.QualityType", 2);
+    session.set_option("Mesh.RandomSeed", 1);
     const ScratchModel model("scalemesh_core");
 
     TetMesh mesh;

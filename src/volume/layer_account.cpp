@@ -88,7 +88,8 @@ LayerAccount account_layers(const SurfaceMesh& surface, const FeatureSize& sizin
     // Stand-ins: for a missing or moved point, another node's point of the
     // same layer in the mesh within the tolerance of its place. One k-d tree
     // per layer, built only when a point is missing.
-    if (std::any_of(state.begin(), state.end(), [](int8_t v) { return v != kHere && v != kNone; })) {
+    if (std::isfinite(tolerance) &&
+        std::any_of(state.begin(), state.end(), [](int8_t v) { return v != kHere && v != kNone; })) {
         using Kernel = CGAL::Simple_cartesian<double>;
         using Tree = CGAL::Kd_tree<CGAL::Search_traits_3<Kernel>>;
         std::vector<std::vector<Kernel::Point_3>> by_layer(L);

@@ -39,6 +39,7 @@ enum class InsertionFate : int8_t { inserted = 0, tiny_tet, filler, hidden, outs
 struct LayerAccount {
     int32_t layermaking = 0;       // floor(M/2)
     double tolerance = 0;          // fraction of its layer spacing a point may have moved and still count
+                                   // (infinite: wherever it is, as a prism layer in its column)
     std::vector<int32_t> realised; // per surface node: consecutive layermaking points in the mesh
     std::vector<LayerLoss> loss;   // per surface node: the first missing one's fate (none when all are there)
     std::vector<char> wall;        // per surface node: every triangle at it is in patch 0 (it casts its own
@@ -74,7 +75,9 @@ struct FinalPoint {
 // from a kept point. A node's layer m is realised when a layermaking point of
 // layer m is in the mesh within `tolerance` times the spacing of layer m of
 // that node from the place Algorithm 4 gave the node's point: its own point,
-// or (a stand-in) another node's. Throws std::invalid_argument on sizes that
+// or (a stand-in) another node's. An infinite `tolerance` counts a node's own
+// point wherever it ended and no stand-in (prism layers: the point is layer m
+// of the node's column, shortened or not). Throws std::invalid_argument on sizes that
 // do not match.
 LayerAccount account_layers(const SurfaceMesh& surface, const FeatureSize& sizing, double M, double L_min,
                             const std::vector<OffsetPoint>& raw, const std::vector<OffsetPoint>& kept,

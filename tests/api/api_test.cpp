@@ -252,7 +252,7 @@ TEST(Api, DefaultsAreTheCaseFileDefaults)
     EXPECT_EQ(o.remesh_cycles, 3);
     EXPECT_EQ(o.growth, 1.0);
     EXPECT_EQ(o.first_layer, "edge");
-    EXPECT_EQ(o.layers, "delaunay");
+    EXPECT_EQ(o.layers, "prisms");
     EXPECT_EQ(o.threads, 0);
 }
 

@@ -307,7 +307,7 @@ TEST(Cli, AMissedFloorWarnsAndFailsUnderStrict)
     write_case("min_dihedral_deg = 60\n"); // no tet mesh of a tube has all its dihedral angles above 60 degrees
     r = run_scalemesh({"run", tmp.path.string()});
     ASSERT_EQ(r.exit_code, 0) << r.err;
-    EXPECT_NE(r.err.find("scalemesh: warning: the smallest dihedral angle is "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("scalemesh: warning: the smallest dihedral angle "), std::string::npos) << r.err;
     ASSERT_EQ(warnings().size(), 1u);
     EXPECT_NE(warnings()[0].get<std::string>().find("min_dihedral_deg"), std::string::npos);
     EXPECT_TRUE(run_scalemesh({"run", tmp.path.string(), "-q"}).err.empty());

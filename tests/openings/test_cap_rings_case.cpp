@@ -25,10 +25,13 @@ double distance_to_segment(const Vec3& x, const Vec3& a, const Vec3& b)
 // The depths of the wall's rings in a cross-section (units of d/M, the mean
 // per layer) and, on each cap, the vertices' depths inside the rim: every
 // cap vertex lies on one of the wall's three rings, and each ring is there.
+// The paper's layers, whose points stay at Algorithm 4's places (prism
+// layers shorten their columns, the caps' rings with them).
 void check_cap_rings(FirstLayer first_layer)
 {
     CaseConfig config = read_case("cases/tube");
     config.first_layer = first_layer;
+    config.layers = LayerMode::delaunay;
     ASSERT_EQ(config.M, 7);
     const PipelineRun run = run_pipeline(config, {.sizing = true, .remesh = true, .volume = true});
     ASSERT_TRUE(run.remeshed && run.volume);

@@ -258,9 +258,12 @@ class TestMeshSurface(GmshSession):
         tags, coords, _ = gmsh.model.mesh.getNodes()
         _, corner_tags = gmsh.model.mesh.getElementsByType(2)
         # gmsh.py's flat layout, as lists, with node tags.
-        from_tags = scalemesh.mesh_surface(list(coords), list(corner_tags), node_tags=list(tags), threads=2)
+        # gmsh_session=True: the default prism layers' core goes through
+        # this gmsh.py session, which is left as it was.
+        from_tags = scalemesh.mesh_surface(list(coords), list(corner_tags), node_tags=list(tags), threads=2,
+                                           gmsh_session=True)
         points, triangles = model_triangles()
-        from_arrays = scalemesh.mesh_surface(points, triangles, threads=2)
+        from_arrays = scalemesh.mesh_surface(points, triangles, threads=2, gmsh_session=True)
         self.assertEqual(from_tags["points"].shape[1], 3)
         self.assertEqual(from_tags["tets"].shape[1], 4)
         np.testing.assert_array_equal(from_tags["points"], from_arrays["points"])
@@ -279,7 +282,8 @@ class TestMeshSurface(GmshSession):
         points = parts[0][0]  # every part indexes all the model's nodes
         triangles = np.vstack([t for _, t in parts])
         labels = np.concatenate([np.full(len(t), patch) for patch, (_, t) in enumerate(parts)])
-        result = scalemesh.mesh_surface(points, triangles, labels, label_names=["wall", "inlet"], threads=2)
+        result = scalemesh.mesh_surface(points, triangles, labels, label_names=["wall", "inlet"], threads=2,
+                                        gmsh_session=True)
         self.assertEqual(result["patch_names"], ["wall", "inlet", "patch_2"])
         self.assertEqual(result["boundary_patch"].shape, (len(result["boundary_triangles"]),))
         centroid_z = result["points"][result["boundary_triangles"]].mean(axis=1)[:, 2]
@@ -289,7 +293,7 @@ class TestMeshSurface(GmshSession):
     def test_options_are_the_case_file_defaults_and_are_checked(self):
         defaults = scalemesh.defaults()
         self.assertEqual((defaults["K"], defaults["M"], defaults["G"]), (4.2, 7.0, 0.85))
-        self.assertEqual(defaults["layers"], "delaunay")
+        self.assertEqual(defaults["layers"], "prisms")
         build_tube()
         points, triangles = model_triangles()
         with self.assertRaisesRegex(ValueError, "growth"):
@@ -307,7 +311,7 @@ class TestMeshSurface(GmshSession):
         with self.assertRaisesRegex(TypeError, "^curvature = 'yes' is not of the option's type"):
             scalemesh.mesh_surface(points, triangles, curvature="yes")
         stages = []
-        scalemesh.mesh_surface(points, triangles, M=5, L_min="0.5 voxels", threads=2,
+        scalemesh.mesh_surface(points, triangles, M=5, L_min="0.5 voxels", threads=2, gmsh_session=True,
                                progress=lambda stage, seconds, summary: stages.append((stage, seconds)))
         self.assertIn("volume", [s for s, seconds in stages if seconds >= 0])
 

@@ -178,6 +178,8 @@ TEST(SurfaceCaps, NoPeelOfAWellShapedTetAcrossPatchesOrWithInteriorPoints)
 // such a quad sends the volume stage to more insertions and then a remesh,
 // and a missing facet to a remesh. The sizes depend on every stage before
 // the volume one; when smoothing or remeshing changes, a new scan picks them.
+// The flips are the paper's layers' (layers = "delaunay"): with prism
+// layers the surface is the stack's, and Gmsh meshes the core against it.
 struct FlipCase {
     std::string shape;
     int box;
@@ -194,7 +196,8 @@ TEST_P(SurfaceFlipPhantom, FlipsWithoutARetryAndTheMeshBoundaryIsTheSurface)
     std::ostringstream text;
     text.precision(17);
     text << "[input]\nphantom = \"" << c.shape << "\"\nvoxel_size = " << 28.0 / c.box << "\n"
-         << "[sizing]\nL_min = \"0.5 voxels\"\nL_max = \"12 voxels\"\n[run]\nthreads = 2\n";
+         << "[sizing]\nL_min = \"0.5 voxels\"\nL_max = \"12 voxels\"\n[volume]\nlayers = \"delaunay\"\n"
+         << "[run]\nthreads = 2\n";
     const CaseConfig config = parse_case(text.str(), ".", "test");
     const PipelineRun run = run_pipeline(config, {.sizing = true, .remesh = true, .volume = true});
     ASSERT_TRUE(run.remeshed && run.volume);
