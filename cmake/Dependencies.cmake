@@ -8,7 +8,7 @@ find_package(Imath CONFIG REQUIRED)
 find_package(embree 3 REQUIRED)
 
 # OpenVDB and the Gmsh SDK ship no CMake config: scalemesh::openvdb and
-# scalemesh::gmsh, also installed for the users of the library.
+# scalemesh::gmsh (used inside the build only).
 include(scalemeshImportedTargets)
 
 find_package(Boost 1.74 REQUIRED)

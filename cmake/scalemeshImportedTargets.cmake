@@ -1,7 +1,7 @@
 # Imported targets for the two Debian packages scalemesh links that ship no
 # CMake package: scalemesh::openvdb (OpenVDB 10) and scalemesh::gmsh (the
-# Gmsh SDK). Included by the build (Dependencies.cmake) and installed with
-# scalemesh's CMake package, whose targets name them.
+# Gmsh SDK), for the build (Dependencies.cmake); not installed: the users of
+# libscalemesh.so link neither.
 
 if(NOT TARGET scalemesh::openvdb)
   find_package(Threads REQUIRED)

@@ -1,17 +1,23 @@
-# The Debian package on this machine: `cpack -G DEB` of this build, `dpkg -i`
-# of the .deb (root only: the test fails, saying so, when not root), then the
-# installed /usr/bin/scalemesh answers --help and writes a phantom; finally
-# `dpkg -r scalemesh` leaves the machine as it was.
-#   cmake -DBUILD_DIR=... -DWORK_DIR=... -P deb_test.cmake
+# The Debian packages on this machine: `cpack -G DEB` of this build makes
+# three, scalemesh (command line and libscalemesh.so.0), libscalemesh-dev
+# (headers, CMake package, the .so link) and python3-scalemesh (the module),
+# whose names, files and Depends are checked (dpkg-deb); then `dpkg -i` of
+# the three (root only: the test fails, saying so, when not root), the
+# installed /usr/bin/scalemesh answers --help and writes a phantom, the
+# library is in the multiarch directory and python3 imports the module;
+# finally `dpkg -r` leaves the machine as it was.
+#   cmake -DBUILD_DIR=... -DWORK_DIR=... -DLIBDIR=lib/<arch> [-DPACK_ONLY=ON] -P deb_test.cmake
+# PACK_ONLY: make and check the packages only, install nothing (no root).
 
-foreach(var BUILD_DIR WORK_DIR)
+cmake_minimum_required(VERSION 3.22)
+foreach(var BUILD_DIR WORK_DIR LIBDIR)
   if(NOT DEFINED ${var})
     message(FATAL_ERROR "deb_test.cmake needs -D${var}=...")
   endif()
 endforeach()
 
 execute_process(COMMAND id -u OUTPUT_VARIABLE uid OUTPUT_STRIP_TRAILING_WHITESPACE)
-if(NOT uid STREQUAL "0")
+if(NOT uid STREQUAL "0" AND NOT PACK_ONLY)
   message(FATAL_ERROR "deb_install needs root to run dpkg -i (uid here: ${uid}); run ctest as root, as CI does")
 endif()
 
@@ -27,17 +33,54 @@ endfunction()
 file(REMOVE_RECURSE "${WORK_DIR}")
 file(MAKE_DIRECTORY "${WORK_DIR}")
 step("cpack -G DEB" "${CMAKE_CPACK_COMMAND}" -G DEB -B "${WORK_DIR}" --config "${BUILD_DIR}/CPackConfig.cmake")
-file(GLOB debs "${WORK_DIR}/scalemesh_*.deb")
+file(GLOB debs RELATIVE "${WORK_DIR}" "${WORK_DIR}/*.deb")
+list(SORT debs)
 list(LENGTH debs count)
-if(NOT count EQUAL 1)
-  message(FATAL_ERROR "cpack made ${count} .deb files in ${WORK_DIR}, not one")
-endif()
-step("dpkg-deb --field" dpkg-deb --field "${debs}" Package Depends)
-if(NOT step_output MATCHES "Package: scalemesh" OR NOT step_output MATCHES "libopenvdb")
-  message(FATAL_ERROR "the package's control fields lack the name or the dependencies:\n${step_output}")
+if(NOT count EQUAL 3)
+  message(FATAL_ERROR "cpack made ${count} .deb files in ${WORK_DIR}, not three: ${debs}")
 endif()
 
-step("dpkg -i" dpkg -i "${debs}")
+# check(package depends_regex file_regex...): the package's .deb, its name,
+# a Depends matching the regex, and the files (paths under /usr) it holds.
+set(packages "")
+function(check package depends)
+  file(GLOB deb "${WORK_DIR}/${package}_*.deb")
+  if(NOT deb)
+    message(FATAL_ERROR "cpack made no ${package}_*.deb: ${debs}")
+  endif()
+  step("dpkg-deb --field ${package}" dpkg-deb --field "${deb}" Package Depends)
+  set(depends_field "")
+  if(step_output MATCHES "Depends: ([^\n]*)")
+    set(depends_field "${CMAKE_MATCH_1}")
+  endif()
+  if(NOT step_output MATCHES "Package: ${package}\n" OR NOT depends_field MATCHES "${depends}")
+    message(FATAL_ERROR "${package}: the control fields lack the name or a Depends matching '${depends}':\n"
+                        "${step_output}")
+  endif()
+  execute_process(COMMAND dpkg-deb --contents "${deb}" OUTPUT_VARIABLE contents RESULT_VARIABLE code)
+  if(NOT code EQUAL 0)
+    message(FATAL_ERROR "dpkg-deb --contents ${deb} failed (${code})")
+  endif()
+  foreach(file IN LISTS ARGN)
+    if(NOT contents MATCHES " \\./usr/${file}( |\n)")
+      message(FATAL_ERROR "${package} holds no /usr/${file}:\n${contents}")
+    endif()
+  endforeach()
+  set(packages ${packages} "${deb}" PARENT_SCOPE)
+endfunction()
+# The library's Depends come from dpkg-shlibdeps; the -dev package's config
+# finds no other package, so it depends on the library only.
+check(scalemesh "libopenvdb" bin/scalemesh "${LIBDIR}/libscalemesh\\.so\\.0")
+check(libscalemesh-dev "^scalemesh \\(= [0-9.]+\\)$" "include/scalemesh/scalemesh\\.h"
+      "${LIBDIR}/libscalemesh\\.so" "${LIBDIR}/cmake/scalemesh/scalemeshConfig\\.cmake")
+check(python3-scalemesh "^python3, python3-numpy, " "lib/python3/dist-packages/scalemesh\\.cpython-[^ ]*\\.so"
+      "lib/python3/dist-packages/scalemesh\\.pyi")
+if(PACK_ONLY)
+  file(REMOVE_RECURSE "${WORK_DIR}")
+  return()
+endif()
+
+step("dpkg -i" dpkg -i ${packages})
 step("scalemesh --help" /usr/bin/scalemesh --help)
 if(NOT step_output MATCHES "Usage" OR NOT step_output MATCHES "run")
   message(FATAL_ERROR "the installed scalemesh --help printed no usage:\n${step_output}")
@@ -46,5 +89,13 @@ step("scalemesh phantom" /usr/bin/scalemesh phantom sphere --voxel-size 2 -o "${
 if(NOT EXISTS "${WORK_DIR}/sphere.vdb")
   message(FATAL_ERROR "the installed scalemesh wrote no phantom")
 endif()
-step("dpkg -r" dpkg -r scalemesh)
+step("ldconfig -p" /sbin/ldconfig -p)
+if(NOT step_output MATCHES "libscalemesh\\.so\\.0 [^\n]*=> /usr/${LIBDIR}/libscalemesh\\.so\\.0")
+  message(FATAL_ERROR "the loader does not know /usr/${LIBDIR}/libscalemesh.so.0")
+endif()
+step("python3 -c 'import scalemesh'" /usr/bin/python3 -c "import scalemesh; print(scalemesh.__file__)")
+if(NOT step_output MATCHES "^/usr/lib/python3/dist-packages/scalemesh")
+  message(FATAL_ERROR "python3 imported scalemesh from elsewhere: ${step_output}")
+endif()
+step("dpkg -r" dpkg -r python3-scalemesh libscalemesh-dev scalemesh)
 file(REMOVE_RECURSE "${WORK_DIR}")

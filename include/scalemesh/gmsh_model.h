@@ -11,6 +11,13 @@
 // host's, with options of its own, and removes the model and restores the
 // options and the current model before returning. Gmsh is not thread safe:
 // the host must not call Gmsh from another thread during the call.
+//
+// This header needs no Gmsh header, and scalemesh::scalemesh links no Gmsh
+// for its users: the host links the Gmsh SDK it calls itself (Debian's
+// libgmsh-dev ships gmsh.h and libgmsh.so but no CMake package:
+// find_path(gmsh.h) and find_library(gmsh)). libscalemesh.so links the same
+// libgmsh.so.4.8 by its soname, so the dynamic loader keeps one copy and the
+// host's session is the library's.
 
 #include "scalemesh/mesh.h"
 
@@ -85,6 +92,7 @@ struct GmshModelResult {
 // model's patches are its physical surfaces), or bad options; StageError when
 // a stage fails, or when Gmsh refuses an addition (the model may then hold
 // part of the additions).
-GmshModelResult mesh_gmsh_model(const GmshModelOptions& model = {}, const MeshOptions& options = {});
+SCALEMESH_API GmshModelResult mesh_gmsh_model(const GmshModelOptions& model = {},
+                                            const MeshOptions& options = {});
 
 } // namespace scalemesh

@@ -29,6 +29,14 @@
 #include <string>
 #include <vector>
 
+// The functions of the library (and MeshOptions' constructor): the only
+// symbols libscalemesh.so exports (its own code is compiled with hidden
+// visibility, the stage libraries in it hidden at its link). Everything else
+// here is defined in the headers.
+#ifndef SCALEMESH_API
+#define SCALEMESH_API __attribute__((visibility("default")))
+#endif
+
 namespace scalemesh {
 
 namespace detail {
@@ -78,7 +86,7 @@ struct MeshOpening {
 // case reader, not restated here); the names are the case file's keys, and
 // every value is checked as the case file's is (InputError naming the key).
 struct MeshOptions {
-    MeshOptions();
+    SCALEMESH_API MeshOptions();
 
     // [sizing], the paper's Algorithm 1.
     double K;                          // anisotropy of the elements at the wall
@@ -242,7 +250,7 @@ struct MeshResult {
 // the case reader checks [[openings]] (naming the opening and the key) and as
 // the openings stage finds them (a point outside the surface, an open end no
 // opening can name); StageError when a stage fails.
-MeshResult mesh_surface(const SurfaceInput& surface, const MeshOptions& options = {});
+SCALEMESH_API MeshResult mesh_surface(const SurfaceInput& surface, const MeshOptions& options = {});
 
 // Meshes an image (.vdb, .nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd, .vti) or a
 // surface file (.stl, .ply, .obj, .vtp, .msh; closed or open-ended, with face
@@ -260,8 +268,8 @@ MeshResult mesh_surface(const SurfaceInput& surface, const MeshOptions& options 
 // debug level at 0, as ITK's NIfTI reader sets it in its constructor
 // (nifti1_io has no way to read a level back, so it cannot be restored).
 // An image in memory (the overload below) has neither effect.
-MeshResult mesh_image(const std::filesystem::path& path, const MeshOptions& options = {},
-                      const ImageOptions& image = {});
+SCALEMESH_API MeshResult mesh_image(const std::filesystem::path& path, const MeshOptions& options = {},
+                                    const ImageOptions& image = {});
 
 // Meshes an image in memory exactly as mesh_image meshes a file holding the
 // same voxels with the same spacing and origin and an identity direction
@@ -275,7 +283,8 @@ MeshResult mesh_image(const std::filesystem::path& path, const MeshOptions& opti
 // spacing, a non-finite origin, NaN or infinite values, no voxel inside (as
 // for a file), and as mesh_surface for the options; StageError as
 // mesh_surface.
-MeshResult mesh_image(const ImageView& image, const MeshOptions& options = {}, const ImageOptions& how = {});
+SCALEMESH_API MeshResult mesh_image(const ImageView& image, const MeshOptions& options = {},
+                                    const ImageOptions& how = {});
 
 // The OpenFOAM case's settings: the case file's [flow] and the OpenFOAM keys
 // of its [output], with its defaults, checked as the case file's are
@@ -314,8 +323,8 @@ struct OpenFoamCase {
 // lists them. Throws InputError for a result the library did not make or bad
 // options, IoError when a file cannot be written, StageError when the mesh
 // fails the writers' validation. No process-wide effect.
-OpenFoamCase write_openfoam(const MeshResult& result, const std::filesystem::path& case_dir,
-                            const OpenFoamOptions& options = {});
+SCALEMESH_API OpenFoamCase write_openfoam(const MeshResult& result, const std::filesystem::path& case_dir,
+                                          const OpenFoamOptions& options = {});
 
 // The .msh file's format: the case file's [output] msh_version and
 // msh_binary, and whose Gmsh session writes it.
@@ -344,7 +353,8 @@ struct MshOptions {
 // host has Gmsh initialised. Throws InputError for a path not ending in
 // .msh, a result the library did not make or bad options, IoError,
 // StageError as write_openfoam.
-void write_msh(const MeshResult& result, const std::filesystem::path& path, const MshOptions& options = {});
+SCALEMESH_API void write_msh(const MeshResult& result, const std::filesystem::path& path,
+                             const MshOptions& options = {});
 
 // The report of the run behind `result`, the JSON text the report.json of
 // `scalemesh run` holds (docs/case-file.md) for a run that wrote no files:
@@ -352,6 +362,6 @@ void write_msh(const MeshResult& result, const std::filesystem::path& path, cons
 // sizing and remeshing statistics, the volume mesh's facts and quality
 // histograms, the layer account, openings, memory and warnings. Throws
 // InputError for a result the library did not make.
-std::string report_json(const MeshResult& result);
+SCALEMESH_API std::string report_json(const MeshResult& result);
 
 } // namespace scalemesh
