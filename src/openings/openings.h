@@ -17,8 +17,8 @@
 // order of the returned caps) is patch i + 1.
 
 #include "core/surface_mesh.h"
+#include "layers/offset_points.h"
 #include "sizing/feature_size.h"
-#include "volume/offset_points.h"
 
 #include <array>
 #include <cstdint>

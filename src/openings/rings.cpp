@@ -1,9 +1,8 @@
 #include "openings/openings.h"
 
 #include "core/errors.h"
+#include "layers/offset_points.h"
 #include "openings/plane_triangulation.h"
-#include "volume/layer_stack.h"
-#include "volume/offset_points.h"
 
 #include <algorithm>
 #include <cmath>

@@ -4,8 +4,8 @@
 
 #include "core/surface_mesh.h"
 #include "core/tet_mesh.h"
+#include "layers/offset_points.h"
 #include "volume/layer_account.h"
-#include "volume/offset_points.h"
 
 #include <array>
 #include <cstdint>

@@ -8,7 +8,7 @@
 
 #include "core/feature_size.h"
 #include "core/surface_mesh.h"
-#include "volume/offset_points.h"
+#include "layers/offset_points.h"
 
 #include <array>
 #include <cstdint>

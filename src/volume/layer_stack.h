@@ -18,11 +18,11 @@
 // (top triangles crossing), whole columns are shortened, keeping their
 // number of layers, as Netgen's growth limiter does: every wall node keeps
 // all its layers. The first layer keeps its thickness (the wall-cell
-// distance), and the others grow less (shortened_column).
+// distance), and the others grow less (shortened_column, offset_points.h).
 
 #include "core/surface_mesh.h"
 #include "core/tet_mesh.h"
-#include "volume/offset_points.h"
+#include "layers/offset_points.h"
 
 #include <cstdint>
 #include <vector>
@@ -85,12 +85,6 @@ struct LayerStack {
 // cap triangles per layer.
 LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizing, const LayerColumns& columns,
                              const LayerStackParams& params = {});
-
-// A column's distances `dist` (layers entries, increasing) shortened to
-// `scale` (<= 1) of its height: the first layer as thick as before, the
-// others growing geometrically to the new height; all layers equal where
-// the first no longer fits that way. `dist` itself for scale >= 1.
-std::vector<double> shortened_column(const double* dist, int32_t layers, double scale);
 
 // The three tets of the prism with bottom `p` and top `q` (point ids, in
 // the orientation of the wall triangle p, whose normal points away from q),

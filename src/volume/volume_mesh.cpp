@@ -1,12 +1,12 @@
 #include "volume/volume_mesh.h"
 
 #include "core/adjacency.h"
+#include "layers/offset_points.h"
 #include "volume/core_mesh.h"
 #include "volume/delaunay_insertion.h"
 #include "volume/improve.h"
 #include "volume/layer_prisms.h"
 #include "volume/layer_stack.h"
-#include "volume/offset_points.h"
 #include "volume/quality.h"
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>

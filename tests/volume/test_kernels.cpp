@@ -4,10 +4,10 @@
 
 #include "core/surface_mesh.h"
 #include "core/tet_mesh.h"
+#include "layers/offset_points.h"
 #include "volume/delaunay_insertion.h"
 #include "volume/improve.h"
 #include "volume/layer_account.h"
-#include "volume/offset_points.h"
 #include "volume/quality.h"
 
 #include <gtest/gtest.h>

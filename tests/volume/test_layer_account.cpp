@@ -4,9 +4,9 @@
 
 #include "core/adjacency.h"
 #include "core/surface_mesh.h"
+#include "layers/offset_points.h"
 #include "sizing/feature_size.h"
 #include "volume/layer_account.h"
-#include "volume/offset_points.h"
 #include "volume/quality.h"
 
 #include <gtest/gtest.h>

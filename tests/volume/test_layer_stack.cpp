@@ -1,5 +1,5 @@
 // The explicit prism layers: the index rule's split of a prism and the
-// shortening of a column (volume/layer_stack.h).
+// shortening of a column (volume/layer_stack.h, layers/offset_points.h).
 
 #include "core/errors.h"
 #include "core/tet_mesh.h"

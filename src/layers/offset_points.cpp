@@ -1,4 +1,4 @@
-#include "volume/offset_points.h"
+#include "layers/offset_points.h"
 
 #include "core/errors.h"
 
@@ -194,6 +194,31 @@ LayerColumns layer_columns(const SurfaceMesh& surface, const FeatureSize& sizing
         }
     });
     return columns;
+}
+
+std::vector<double> shortened_column(const double* dist, int32_t layers, double scale)
+{
+    std::vector<double> out(dist, dist + layers);
+    if (layers == 0 || scale >= 1) return out;
+    const double total = scale * dist[layers - 1], first = dist[0];
+    std::vector<double> step(layers, total / layers); // uniform, where the first layer no longer fits
+    if (layers > 1 && first * layers < total) {
+        // first * (1 + r + ... + r^(layers-1)) = total for some r > 1.
+        const auto sum = [&](double r) {
+            double s = 0, term = first;
+            for (int32_t m = 0; m < layers; ++m, term *= r) s += term;
+            return s;
+        };
+        double lo = 1, hi = 2;
+        while (sum(hi) < total) hi *= 2;
+        for (int i = 0; i < 100; ++i) (sum(0.5 * (lo + hi)) < total ? lo : hi) = 0.5 * (lo + hi);
+        double term = first;
+        for (int32_t m = 0; m < layers; ++m, term *= 0.5 * (lo + hi)) step[m] = term;
+    }
+    double at = 0;
+    for (int32_t m = 0; m < layers; ++m) out[m] = at += step[m];
+    out[layers - 1] = total;
+    return out;
 }
 
 std::vector<OffsetPoint> offset_points(const SurfaceMesh& surface, const FeatureSize& sizing,

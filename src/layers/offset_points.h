@@ -1,7 +1,9 @@
 #pragma once
 // Interior points of the layered volume mesh: paper Algorithm 4 (offset
 // points along the inward synthetic normal) and the interior-point filter of
-// section 4.
+// section 4. The layer columns are shared: the volume stage lays its layers
+// and prism stacks on them (layer_stack.h), the openings a cap's rings on
+// its rim nodes' columns (ring_caps, openings.h).
 
 #include "core/adjacency.h"
 #include "core/feature_size.h"
@@ -81,6 +83,12 @@ struct LayerColumns {
     std::vector<char> repaired;  // per node: its direction is repaired_inward_direction's
 };
 LayerColumns layer_columns(const SurfaceMesh& surface, const FeatureSize& sizing, const OffsetParams& params);
+
+// A column's distances `dist` (layers entries, increasing) shortened to
+// `scale` (<= 1) of its height: the first layer as thick as before, the
+// others growing geometrically to the new height; all layers equal where
+// the first no longer fits that way. `dist` itself for scale >= 1.
+std::vector<double> shortened_column(const double* dist, int32_t layers, double scale);
 
 // Algorithm 4 for every surface node i: layermaking points at cumulative
 // distances sum_{k<=m} lambda_k d_i for m = 1..floor(M/2) (with

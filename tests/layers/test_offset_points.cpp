@@ -1,4 +1,4 @@
-#include "volume/offset_points.h"
+#include "layers/offset_points.h"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
