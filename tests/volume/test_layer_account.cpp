@@ -3,9 +3,9 @@
 // (edge_layer_fractions, offset_points with FirstLayer::edge).
 
 #include "core/adjacency.h"
+#include "core/feature_size.h"
 #include "core/surface_mesh.h"
 #include "layers/offset_points.h"
-#include "sizing/feature_size.h"
 #include "volume/layer_account.h"
 #include "volume/quality.h"
 

@@ -2,8 +2,8 @@
 // shortening of a column (volume/layer_stack.h, layers/offset_points.h).
 
 #include "core/errors.h"
+#include "core/feature_size.h"
 #include "core/tet_mesh.h"
-#include "sizing/feature_size.h"
 #include "volume/improve.h"
 #include "volume/layer_stack.h"
 #include "volume/tet_editor.h"
