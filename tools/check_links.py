@@ -23,13 +23,26 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 STAGE_DIRS = ("src", "importers", "exporters", "gmsh_io")
 SKIP_DIRS = {"build", ".git", "cases", "docs"}
 VISIBILITY = {"PUBLIC", "PRIVATE", "INTERFACE"}
+# include/scalemesh/: the library's public headers, on the include path of
+# the targets that compile the library (src/api/) and of those linking it.
+PUBLIC_HEADERS = "scalemesh (include/)"
+PUBLIC_HEADER_TARGETS = {"scalemesh_api", "scalemesh_library", "scalemesh_static"}
 
 
 def cmake_commands(path):
+    """The commands of one CMakeLists.txt, with the lists it set() expanded."""
     text = "\n".join(line.split("#", 1)[0] if not line.lstrip().startswith("#") else ""
                      for line in open(path, encoding="utf-8"))
+    variables = {}
     for name, args in re.findall(r"\b(\w+)\s*\(([^()]*)\)", text):
-        yield name.lower(), [a.strip("\"") for a in args.split()]
+        words = []
+        for a in args.split():
+            a = a.strip("\"")
+            m = re.fullmatch(r"\$\{(\w+)\}", a)
+            words += variables.get(m.group(1), []) if m else [a]
+        if name.lower() == "set" and words:
+            variables[words[0]] = words[1:]
+        yield name.lower(), words
 
 
 def read_targets():
@@ -88,7 +101,7 @@ def header_owners(targets):
             return owners[header]
         result = None
         if header.startswith("scalemesh/"):
-            result = "scalemesh_library"
+            result = PUBLIC_HEADERS
         else:
             for base in (os.path.join(ROOT, "src"), ROOT):
                 path = os.path.join(base, header)
@@ -149,6 +162,8 @@ def main():
         files += [os.path.join(t["dir"], f) for f in os.listdir(t["dir"])
                   if f.endswith(".h") and owner(include_name(os.path.join(t["dir"], f))) == name]
         linked = closure(targets, name)
+        if name in PUBLIC_HEADER_TARGETS or linked & PUBLIC_HEADER_TARGETS:
+            linked.add(PUBLIC_HEADERS)
         used = {}
         for f in sorted(set(files)):
             for h in includes(f):
