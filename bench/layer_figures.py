@@ -3,8 +3,10 @@
 
 Runs `scalemesh -q run --strict --threads 2` on a copy of each case under
 cases/ (aorta_surface_m16 is the aorta at M = 16), and of the tube and the
-torus with the paper's first layer, reads report.json, runs OpenFOAM's checkMesh, and
-prints a markdown table; with --doc FILE it replaces the table between the
+torus with the paper's first layer and with the paper's Delaunay layers, reads
+report.json, runs OpenFOAM's checkMesh, and prints a markdown table (the worst
+aspect ratio and smallest dihedral angle of the cells the floors judge: with
+prism layers the tets written as cells of their own); with --doc FILE it replaces the table between the
 markers `<!-- layer figures -->` and `<!-- end layer figures -->` in FILE.
 
     /usr/bin/python3 bench/layer_figures.py --scalemesh build/src/cli/scalemesh --doc docs/method.md
@@ -57,8 +59,11 @@ def run_case(scalemesh, work, name, label, edits):
     check = subprocess.run(["checkMesh", "-case", dst], capture_output=True, text=True, env=env).stdout
     ortho = re.search(r"non-orthogonality Max: ([0-9.]+)", check)
     severe = re.search(r"severely non-orthogonal \(> 70 degrees\) faces: (\d+)", check)
-    layers, volume = report["layers"], report["volume"]
+    layers, volume, foam = report["layers"], report["volume"], report["openfoam"]
     quality = volume["quality_after_sliver_removal"]
+    # The cells the floors judge: with prism layers written as prism cells
+    # the tets written as cells of their own, else every tet.
+    cells = foam.get("tet_cells_min_aspect_ratio") is not None
     return {
         "case": label,
         "M": report["parameters"]["M"],
@@ -69,10 +74,12 @@ def run_case(scalemesh, work, name, label, edits):
         "released": volume["dihedral_pass"].get("released_layer_points", 0),
         "anisotropy": volume["first_layer_anisotropy_median"],
         "tets": volume["tets"],
-        "cells": report["openfoam"]["cells"],
-        "prisms": report["openfoam"]["layer_prisms"],
-        "worst_aspect": quality["min_aspect_ratio"],
-        "min_dihedral": quality["min_dihedral_deg"],
+        "built": volume.get("layers_built", report["parameters"]["layers"]),
+        "cells": foam["cells"],
+        "prisms": foam["layer_prisms"],
+        "intact": foam["intact_prism_share"],
+        "worst_aspect": foam["tet_cells_min_aspect_ratio"] if cells else quality["min_aspect_ratio"],
+        "min_dihedral": foam["tet_cells_min_dihedral_deg"] if cells else quality["min_dihedral_deg"],
         "non_ortho": float(ortho.group(1)) if ortho else float("nan"),
         "severe": int(severe.group(1)) if severe else 0,
         "mesh_ok": "\nMesh OK." in check,
@@ -81,13 +88,14 @@ def run_case(scalemesh, work, name, label, edits):
 
 
 def table(rows):
-    out = ["| case | M | wall nodes owed | all layers | mean layers | stand-ins | layer points released | "
-           "anisotropy median | tets | OpenFOAM cells (layer prisms) | worst aspect ratio | min dihedral (deg) | "
-           "checkMesh | max non-orth. (deg) | faces > 70 deg | warnings |",
-           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    out = ["| case | M | layers | wall nodes owed | all layers | mean layers | stand-ins | layer points released | "
+           "anisotropy median | tets | OpenFOAM cells (layer prisms) | intact prisms | worst aspect ratio | "
+           "min dihedral (deg) | checkMesh | max non-orth. (deg) | faces > 70 deg | warnings |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        out.append(f"| {r['case']} | {r['M']:g} | {r['owed']} | {100 * r['coverage']:.2f}% | {r['mean']:.2f} | "
+        out.append(f"| {r['case']} | {r['M']:g} | {r['built']} | {r['owed']} | {100 * r['coverage']:.2f}% | {r['mean']:.2f} | "
                    f"{r['stand_ins']} | {r['released']} | {r['anisotropy']:.2f} | {r['tets']} | {r['cells']} ({r['prisms']}) | "
+                   f"{100 * r['intact']:.1f}% | "
                    f"{r['worst_aspect']:.4f} | "
                    f"{r['min_dihedral']:.2f} | {'Mesh OK' if r['mesh_ok'] else 'FAILED'} | {r['non_ortho']:.2f} | "
                    f"{r['severe']} | {r['warnings']} |")
@@ -104,6 +112,7 @@ def main():
                    if os.path.exists(os.path.join(ROOT, "cases", d, "scalemesh.toml")))
     runs = [(c, c, {}) for c in cases]
     runs += [(c, f"{c}, first_layer = paper", {"volume": {"first_layer": '"paper"'}}) for c in ("tube", "torus")]
+    runs += [(c, f"{c}, layers = delaunay", {"volume": {"layers": '"delaunay"'}}) for c in ("tube", "torus")]
     work = tempfile.mkdtemp(prefix="scalemesh-layer-figures-")
     try:
         rows = []

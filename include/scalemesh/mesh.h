@@ -8,7 +8,7 @@
 // of `scalemesh run` (docs/method.md, docs/case-file.md); the library never
 // prints, never exits and changes no process-wide setting (threads run in a
 // TBB arena of its own), but for the few that mesh_image on a file,
-// write_msh and, with layers = "prisms", mesh_surface list (a host that holds
+// write_msh and, with the default layers = "prisms", mesh_surface list (a host that holds
 // a Gmsh session says so: MeshOptions::host_gmsh_session,
 // MshOptions::host_gmsh_session). Its options are read alike under any
 // LC_NUMERIC; ITK's and Gmsh's file readers follow the locale the host set.
@@ -107,8 +107,9 @@ struct MeshOptions {
     // [volume], Algorithms 4 and 5.
     double growth;                     // layer thickness ratio, [1, 3]; 1 = uniform layers
     std::string first_layer;           // "edge" (surface edge length / K) or "paper" (d / M)
-    std::string layers;                // "delaunay" (the paper's layer points in one Delaunay triangulation)
-                                       // or "prisms" (prism layers built explicitly, the core meshed above)
+    std::string layers;                // "prisms" (prism layers built explicitly, the core meshed above by
+                                       // Gmsh) or "delaunay" (the paper's layer points in one Delaunay
+                                       // triangulation, no Gmsh)
     double layer_tolerance;            // fraction of its layer spacing a layer point may move, (0, 0.5]
 
     // [run]

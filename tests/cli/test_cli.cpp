@@ -347,6 +347,36 @@ TEST(Cli, AFailedRunLeavesEarlierOutputsUntouched)
     EXPECT_EQ(tmp.files(), files);
 }
 
+// Where the prism layers cannot be built, the run builds the paper's
+// Delaunay layers instead and says so, rather than failing: a tube of 4
+// voxels radius whose border inlet widens to 5 voxels, where the inlet cap's
+// rim columns stay poor whatever their height.
+TEST(Cli, PrismLayersThatCannotBeBuiltGiveWayToTheDelaunayLayers)
+{
+    const TempDir tmp;
+    write_label_mha(tmp.path / "tube.mha", {20, 20, 30}, 0.5, [](int i, int j, int k) {
+        return std::hypot(i - 9.5, j - 9.5) < (k < 3 ? 5 : 4);
+    });
+    std::ofstream(tmp.path / "scalemesh.toml")
+        << "[input]\nfile = \"tube.mha\"\n[[openings]]\nname = \"inlet\"\ntype = \"inlet\"\nborder = \"z-\"\n"
+           "[[openings]]\nname = \"outlet\"\ntype = \"outlet\"\nborder = \"z+\"\n";
+    const CommandResult r = run_scalemesh({"run", tmp.path.string()});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const nlohmann::json report = nlohmann::json::parse(read_text(tmp.path / "report.json"));
+    EXPECT_EQ(report["parameters"]["layers"], "prisms");
+    EXPECT_EQ(report["volume"]["layers_built"], "delaunay");
+    ASSERT_TRUE(report["volume"]["layer_fallback"].is_string());
+    EXPECT_NE(report["volume"]["layer_fallback"].get<std::string>().find("cap 'inlet'"), std::string::npos)
+        << report["volume"]["layer_fallback"];
+    EXPECT_NE(report["warnings"].dump().find("the prism layers could not be built"), std::string::npos)
+        << report["warnings"];
+    EXPECT_NE(r.err.find("the prism layers could not be built"), std::string::npos) << r.err;
+    // The Delaunay layers' mesh, whole: a closed boundary and the OpenFOAM case.
+    EXPECT_TRUE(report["volume"]["boundary_matches_surface"].get<bool>());
+    EXPECT_EQ(report["openfoam"]["checks"]["checkmesh_failures"].get<int64_t>(), 0);
+    EXPECT_TRUE(report["openfoam"]["tet_cells_min_dihedral_deg"].is_null());
+}
+
 // [volume] layers: the explicit prism layers reach OpenFOAM intact (at
 // least 95% of wall faces x layers as single prism cells, none of
 // checkMesh's failing checks), on a closed torus and on a tube with an
