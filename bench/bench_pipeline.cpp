@@ -83,6 +83,10 @@ struct Settings {
     std::vector<int> threads = {1, 2};
     int repeats = 3;
     double L_max_voxels = 12;
+    // The wall layers' construction ([volume] layers). The tables of
+    // docs/performance.md are of the paper's Delaunay layers, whose volume
+    // stage is compared with plain CGAL insertion of the same points.
+    std::string layers = "delaunay";
     double max_memory_gib = 12;   // a size whose predicted peak is above this is skipped
     bool mesh_3 = true;
     int mesh_3_max_box = 256;     // Mesh_3 only up to this size: it takes minutes per million tets
@@ -182,7 +186,7 @@ std::string case_text(const Settings& s, double h, int threads)
     toml.precision(17);
     toml << "[input]\nphantom = \"" << s.shape << "\"\nvoxel_size = " << h << "\n"
          << "[sizing]\nL_min = \"0.5 voxels\"\nL_max = \"" << s.L_max_voxels << " voxels\"\n"
-         << "[volume]\nmin_dihedral_deg = 10\n"
+         << "[volume]\nlayers = \"" << s.layers << "\"\nmin_dihedral_deg = 10\n"
          << "[output]\nsurface = []\nvolume = [\"mesh.msh\"]\nopenfoam = false\nmsh_binary = true\n"
          << "[run]\nthreads = " << threads << "\n";
     return toml.str();
@@ -888,6 +892,9 @@ int main(int argc, char** argv)
     app.add_option("--threads", threads, "thread counts, comma separated, fewest first")->capture_default_str();
     app.add_option("--repeats", s.repeats, "runs per figure; the median is reported")->capture_default_str()->check(CLI::PositiveNumber);
     app.add_option("--L-max-voxels", s.L_max_voxels, "L_max in voxel widths")->capture_default_str();
+    app.add_option("--layers", s.layers, "the wall layers' construction, as [volume] layers")
+        ->check(CLI::IsMember({"delaunay", "prisms"}))
+        ->capture_default_str();
     app.add_option("--max-memory-gib", s.max_memory_gib,
                    "skip a size whose predicted peak is above this; above the machine's memory, also the runs' own "
                    "bound (scalemesh --max-memory)")
@@ -917,6 +924,7 @@ int main(int argc, char** argv)
         s.command = result["command"];
         s.shape = result["shape"];
         s.L_max_voxels = result["L_max_voxels"];
+        s.layers = result.value("layers", std::string("delaunay")); // files from before the option: Delaunay
         s.repeats = result["repeats"];
         s.boxes = result["boxes"].get<std::vector<int>>();
         s.threads = result["threads"].get<std::vector<int>>();
@@ -946,6 +954,7 @@ int main(int argc, char** argv)
     result["threads"] = s.threads;
     result["shape"] = s.shape;
     result["L_max_voxels"] = s.L_max_voxels;
+    result["layers"] = s.layers;
     result["repeats"] = s.repeats;
     result["machine"] = {{"cores", sysconf(_SC_NPROCESSORS_ONLN)}, {"load_before", load_average()}};
     result["sizes"] = json::array();
