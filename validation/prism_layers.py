@@ -42,7 +42,9 @@ def prism_case(source, target):
         return f'{match.group(1)}"{file}"'
 
     text = re.sub(r'^(\s*file\s*=\s*)"([^"]*)"', absolute, text, flags=re.M)
-    if re.search(r"^\[volume\]\s*$", text, flags=re.M):
+    if re.search(r"^layers\s*=", text, flags=re.M):  # a case that chooses its layers
+        text = re.sub(r"^layers\s*=.*$", 'layers = "prisms"', text, count=1, flags=re.M)
+    elif re.search(r"^\[volume\]\s*$", text, flags=re.M):
         text = re.sub(r"^\[volume\]\s*$", '[volume]\nlayers = "prisms"', text, count=1, flags=re.M)
     else:
         text += '\n[volume]\nlayers = "prisms"\n'

@@ -156,11 +156,24 @@ void ProgressDisplay::summary(const CaseConfig& config, const CaseResult& result
         if (a.opening_nodes)
             std::fprintf(o, "; %lld opening nodes (cap rings carry their layers)", static_cast<long long>(a.opening_nodes));
         std::fprintf(o, "\n");
-        std::fprintf(o,
-                     "  quality   worst aspect ratio %.4f, mean %.4f, %.3f%% below 0.1, smallest dihedral angle %.2f deg, "
-                     "largest non-orthogonality %.3f deg\n",
-                     q.min_aspect_ratio, q.mean_aspect_ratio, 100 * q.fraction_below_0_1, q.min_dihedral_deg,
-                     std::floor(1000 * v.max_non_orthogonality_deg) / 1000); // cut: 69.9999 is not 70.000
+        if (result.tet_cells) {
+            // Prism layers written as prism cells: the quality the floors
+            // judge, of the tets written as cells of their own (a prism's
+            // own tets are as flat as its layer is thin), and OpenFOAM's
+            // worst face.
+            const CellFloors& c = *result.tet_cells;
+            std::fprintf(o,
+                         "  quality   worst aspect ratio %.4f, %.3f%% below 0.1, smallest dihedral angle %.2f deg (the "
+                         "tet cells; the layer prisms are cells of their own), largest non-orthogonality %.3f deg\n",
+                         c.min_aspect_ratio, 100 * c.fraction_below_0_1, c.min_dihedral_deg,
+                         std::floor(1000 * result.openfoam_checks.max_non_orthogonality_deg) / 1000);
+        } else {
+            std::fprintf(o,
+                         "  quality   worst aspect ratio %.4f, mean %.4f, %.3f%% below 0.1, smallest dihedral angle %.2f "
+                         "deg, largest non-orthogonality %.3f deg\n",
+                         q.min_aspect_ratio, q.mean_aspect_ratio, 100 * q.fraction_below_0_1, q.min_dihedral_deg,
+                         std::floor(1000 * v.max_non_orthogonality_deg) / 1000); // cut: 69.9999 is not 70.000
+        }
         if (verbosity_ == Verbosity::Verbose) {
             const auto phase = [o](const char* name, const QualityReport& r) {
                 std::fprintf(o, "            %-21s %9lld tets, worst %.4f, %.3f%% below 0.1, %lld below 0.02\n", name,

@@ -724,6 +724,9 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
     // remeshed, and the volume stage re-run, a bounded number of times.
     std::vector<double> d = run.sizing->d;
     run.layers = config.layers;
+    // Set while a step that builds the layers runs (the caps' rings, the
+    // volume stage): only their failures give way to the Delaunay layers.
+    bool layering = false;
     for (int attempt = 0;; ++attempt) try {
         {
             StageClock clock(run, listener, attempt == 0 ? "remeshing" : "remeshing (retry " + std::to_string(attempt) + ")");
@@ -742,6 +745,7 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
                 // from its rim's layer points (section 3's layers across
                 // the opening).
                 run.remeshed->sizing = cap_feature_size(run.remeshed->surface, run.caps, remesh.sizing);
+                layering = true;
                 run.remeshed->surface =
                     ring_caps(run.remeshed->surface, run.caps, run.remeshed->sizing,
                               {.M = config.M,
@@ -750,6 +754,7 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
                                .K = config.K,
                                .L_max = run.L_max,
                                .prism_columns = run.layers == LayerMode::prisms ? &volume.rim_columns : nullptr});
+                layering = false;
             }
             if (!run.caps.empty())
                 if (const std::string crossing =
@@ -773,8 +778,11 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
                                         " remeshed surface nodes"));
         StageClock clock(run, listener, attempt == 0 ? "volume" : "volume (retry " + std::to_string(attempt) + ")");
         try {
+            layering = true;
             run.volume = build_volume_mesh(run.remeshed->surface, run.remeshed->sizing, volume);
+            layering = false;
         } catch (const VolumeConformityError& e) {
+            layering = false;
             if (attempt + 1 >= kConformityAttempts) throw;
             const int64_t refined = refine_near(run.surface, run.remeshed->surface, e.failing_nodes, config.K / config.M, d);
             run.refinements.push_back({attempt + 1, static_cast<int64_t>(e.failing_nodes.size()), refined, e.what()});
@@ -796,14 +804,14 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
     } catch (const StageError& e) {
         // Prism layers that cannot be built (a cap whose rim columns stay
         // poor, a core Gmsh refuses) give way to the paper's layers, which
-        // need no columns; the run says so. Any other failure recurs there.
-        if (run.layers != LayerMode::prisms || dynamic_cast<const VolumeConformityError*>(&e)) throw;
+        // need no columns; the run says so (floor_warnings). A failure of
+        // another step would recur there; a surface the volume stage could
+        // not conform to after its refinements is the surface's, not the
+        // layers'.
+        if (run.layers != LayerMode::prisms || !layering || dynamic_cast<const VolumeConformityError*>(&e)) throw;
+        layering = false;
         run.layers = LayerMode::delaunay;
         run.layer_fallback = e.what();
-        run.warnings.push_back(std::string("the prism layers could not be built (") + e.what() +
-                               "); the method paper's Delaunay layers were built instead, with fewer wall "
-                               "faces x layers intact as prism cells ([volume] layers = \"delaunay\" asks for "
-                               "them directly)");
         volume.layers = LayerMode::delaunay;
         volume.rim_columns.clear();
         d = run.sizing->d;

@@ -175,6 +175,10 @@ std::vector<std::string> cell_floor_warnings(const CaseConfig& config, const Cel
 std::vector<std::string> floor_warnings(const CaseConfig& config, const PipelineRun& run, bool cells_later)
 {
     std::vector<std::string> warnings = run.warnings; // the input's (units)
+    if (!run.layer_fallback.empty())
+        warnings.push_back("the prism layers could not be built (" + run.layer_fallback +
+                           "); the method paper's Delaunay layers are built instead, with fewer wall faces x layers "
+                           "intact as prism cells ([volume] layers = \"delaunay\" asks for them directly)");
     if (!run.volume) return warnings;
     const VolumeResult& v = *run.volume;
     const LayerAccount& a = v.layers;
