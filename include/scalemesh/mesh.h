@@ -111,6 +111,7 @@ struct MeshOptions {
                                        // Gmsh) or "delaunay" (the paper's layer points in one Delaunay
                                        // triangulation, no Gmsh)
     double layer_tolerance;            // fraction of its layer spacing a layer point may move, (0, 0.5]
+                                       // (with "prisms": a column's top, along its column)
 
     // [run]
     int threads;                       // worker threads of every parallel stage; 0: every core
