@@ -1,4 +1,5 @@
 #include "pipeline/pipeline.h"
+#include "pipeline/run_case.h"
 
 #include "core/errors.h"
 #include "importers/image_importer.h"
@@ -799,6 +800,14 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
         summary << q.tets << " tets, " << run.volume->mesh.points.size() << " points; aspect ratio min "
                 << q.min_aspect_ratio << ", below 0.1: " << 100 * q.fraction_below_0_1 << "%";
         if (flips > 0) summary << "; " << flips << " surface diagonals flipped";
+        // Prism layers whose OpenFOAM cells would miss the case's floors
+        // (or fail checkMesh) give way to the paper's layers, which the
+        // cell passes mend freely: thin layers over a wall that folds back
+        // on itself, or at a large M.
+        layering = true;
+        if (const std::string shortfall = prism_cells_shortfall(config, run); !shortfall.empty())
+            throw StageError("volume", "the prism layers' OpenFOAM cells would miss the case's floors: " + shortfall);
+        layering = false;
         clock.done(summary.str());
         return run;
     } catch (const StageError& e) {

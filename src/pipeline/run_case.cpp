@@ -176,7 +176,7 @@ std::vector<std::string> floor_warnings(const CaseConfig& config, const Pipeline
 {
     std::vector<std::string> warnings = run.warnings; // the input's (units)
     if (!run.layer_fallback.empty())
-        warnings.push_back("the prism layers could not be built (" + run.layer_fallback +
+        warnings.push_back("the prism layers were given up (" + run.layer_fallback +
                            "); the method paper's Delaunay layers are built instead, with fewer wall faces x layers "
                            "intact as prism cells ([volume] layers = \"delaunay\" asks for them directly)");
     if (!run.volume) return warnings;
@@ -254,6 +254,59 @@ CellFloors tet_cell_floors(const TetMesh& mesh, const LayerPrismCells& cells, co
     floors.fraction_below_0_1 = own ? static_cast<double>(below) / static_cast<double>(own) : 0.0;
     return floors;
 }
+
+} // namespace
+
+FoamCells foam_cells(const CaseConfig& config, const PipelineRun& run, const TetMesh& mesh)
+{
+    FoamCells out;
+    const VolumeResult& v = *run.volume;
+    OpenFoamCellChecks& checks = out.checks;
+    const auto check = [&](const LayerPrismCells& c) {
+        checks = openfoam_cell_checks(mesh, v.adjacency, c.cell_of_tet, c.cells, {},
+                                      c.prism_cell.empty() ? nullptr : &c.prism_cell);
+        return checks.grouped_cells_failing;
+    };
+    // With layers = "prisms" a prism is not split for its faces'
+    // non-orthogonality alone: its three tets are flatter (their faces
+    // further off) than the prism they fill; it is split where checkMesh
+    // would fail it (`check`), or for a face at 89 degrees.
+    const double prism_bound = run.layers == LayerMode::prisms ? 89.0 : 68.0;
+    // With layers = "prisms", a tet cell below the aspect-ratio or
+    // dihedral floor or on a face beyond 69.5 degrees (a sliver the
+    // core's tets leave in a crease of the layers' top, pinned by the
+    // locked prisms) is joined to one to three neighbouring cells where
+    // their union is a sound polyhedron (OpenFOAM's checks decide).
+    const PoorTetBounds poor{.min_aspect_ratio = config.min_aspect_ratio,
+                             .min_dihedral_deg = config.min_dihedral_deg,
+                             .max_non_orthogonality_deg = 69.5};
+    LayerPrismCells& cells = out.cells;
+    if (config.layer_prisms) {
+        cells = checked_layer_prism_cells(mesh, v.adjacency, v.point_generator, v.point_layer, v.point_filler,
+                                          prism_bound, check, run.layers == LayerMode::prisms ? &poor : nullptr);
+    } else {
+        cells.cells = static_cast<int32_t>(mesh.tets.size());
+        cells.cell_of_tet.resize(mesh.tets.size());
+        for (size_t t = 0; t < mesh.tets.size(); ++t) cells.cell_of_tet[t] = static_cast<int32_t>(t);
+        check(cells);
+    }
+    if (run.layers == LayerMode::prisms && config.layer_prisms) out.tet_cells = tet_cell_floors(mesh, cells, checks);
+    return out;
+}
+
+std::string prism_cells_shortfall(const CaseConfig& config, const PipelineRun& run)
+{
+    if (!run.volume || run.layers != LayerMode::prisms || !config.openfoam || !config.layer_prisms) return "";
+    const TetMesh mesh = case_mesh(config, run);
+    const FoamCells foam = foam_cells(config, run, mesh);
+    std::vector<std::string> missed = openfoam_check_warnings(foam.checks);
+    for (std::string& w : cell_floor_warnings(config, *foam.tet_cells)) missed.push_back(std::move(w));
+    std::string text;
+    for (const std::string& w : missed) text += (text.empty() ? "" : "; ") + w;
+    return text;
+}
+
+namespace {
 
 } // namespace
 
@@ -761,46 +814,17 @@ CaseOutputs write_case_outputs(const CaseConfig& config, const PipelineRun& run,
             // prism's centre as OpenFOAM computes it) is split back into its
             // tets, until there is none. What is left on single tets is
             // warned of.
-            const VolumeResult& v = *run.volume;
-            OpenFoamCellChecks checks;
-            const auto check = [&](const LayerPrismCells& c) {
-                checks = openfoam_cell_checks(mesh, v.adjacency, c.cell_of_tet, c.cells, {},
-                                              c.prism_cell.empty() ? nullptr : &c.prism_cell);
-                return checks.grouped_cells_failing;
-            };
-            // With layers = "prisms" a prism is not split for its faces'
-            // non-orthogonality alone: its three tets are flatter (their
-            // faces further off) than the prism they fill; it is split where
-            // checkMesh would fail it (`check`), or for a face at 89 degrees.
-            const double prism_bound = run.layers == LayerMode::prisms ? 89.0 : 68.0;
-            // With layers = "prisms", a tet cell below the aspect-ratio or
-            // dihedral floor or on a face beyond 69.5 degrees (a sliver the
-            // core's tets leave in a crease of the layers' top, pinned by the
-            // locked prisms) is joined to one to three neighbouring cells where
-            // their union is a sound polyhedron (OpenFOAM's checks decide).
-            const PoorTetBounds poor{.min_aspect_ratio = config.min_aspect_ratio,
-                                     .min_dihedral_deg = config.min_dihedral_deg,
-                                     .max_non_orthogonality_deg = 69.5};
-            LayerPrismCells cells;
-            if (config.layer_prisms) {
-                cells = checked_layer_prism_cells(mesh, v.adjacency, v.point_generator, v.point_layer, v.point_filler,
-                                                  prism_bound, check,
-                                                  run.layers == LayerMode::prisms ? &poor : nullptr);
-            } else {
-                cells.cells = static_cast<int32_t>(mesh.tets.size());
-                cells.cell_of_tet.resize(mesh.tets.size());
-                for (size_t t = 0; t < mesh.tets.size(); ++t) cells.cell_of_tet[t] = static_cast<int32_t>(t);
-                check(cells);
-            }
+            const FoamCells foam = foam_cells(config, run, mesh);
+            const LayerPrismCells& cells = foam.cells;
+            const OpenFoamCellChecks& checks = foam.checks;
             result.layer_prisms = cells.prisms;
             result.layer_prisms_refused = cells.refused;
             result.absorbed_tets = cells.absorbed;
             result.openfoam_checks = checks;
             for (const std::string& w : openfoam_check_warnings(checks)) result.warnings.push_back(w);
             if (prism_cells) {
-                const CellFloors floors = tet_cell_floors(mesh, cells, checks);
-                result.tet_cells = floors;
-                for (const std::string& w : cell_floor_warnings(config, floors)) result.warnings.push_back(w);
+                result.tet_cells = foam.tet_cells;
+                for (const std::string& w : cell_floor_warnings(config, *foam.tet_cells)) result.warnings.push_back(w);
             }
             const bool decompose = config.decompose > 1;
             PolyMeshFaces faces;

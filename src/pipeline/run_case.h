@@ -6,6 +6,7 @@
 #include "exporters/polymesh_decompose.h"
 #include "exporters/polymesh_writer.h"
 #include "pipeline/pipeline.h"
+#include "volume/layer_prisms.h"
 
 #include <filesystem>
 #include <optional>
@@ -87,6 +88,24 @@ std::vector<std::string> cell_floor_warnings(const CaseConfig& config, const Cel
 // (OpenFoamCellChecks::checkmesh_failures: only faces between single tets
 // can, since the prisms on them are split back), empty when none would.
 std::vector<std::string> openfoam_check_warnings(const OpenFoamCellChecks& checks);
+
+// The OpenFOAM cells of a run's mesh `mesh` (case_mesh) as write_case_outputs
+// writes them: layer prisms joined ([output] layer_prisms), each split back
+// where checkMesh would fail it, poor tets joined to neighbours with prism
+// layers; OpenFOAM's own checks on them; with prism layers written as
+// prism cells, the floors' figures on the tets written as cells.
+struct FoamCells {
+    LayerPrismCells cells;
+    OpenFoamCellChecks checks;
+    std::optional<CellFloors> tet_cells;
+};
+FoamCells foam_cells(const CaseConfig& config, const PipelineRun& run, const TetMesh& mesh);
+
+// With prism layers to be written as prism cells: the floors of the case
+// their cells would miss and the checkMesh failures they would have, as
+// the run's warnings word them ("; " between), empty when none (and for
+// other runs). The pipeline gives such prism layers up for the paper's.
+std::string prism_cells_shortfall(const CaseConfig& config, const PipelineRun& run);
 
 // The layer prisms written as single cells, over the wall faces times the
 // layers that make prisms (layers.layermaking): 1 when every wall face

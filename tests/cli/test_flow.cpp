@@ -123,11 +123,12 @@ std::vector<double> patch_average(const std::filesystem::path& dir, const std::s
 }
 
 // The pressure drop over the middle third of the tube against
-// Hagen-Poiseuille's, with either layer construction at an M where the
-// study (docs/validation.md, docs/validation-prisms.md) measures it
-// within 1%: the paper's layers from M = 10; the prism layers at M = 14
-// (at M = 10 the voxel tube's are +2.2% to +2.5% off, the exact cylinder's
-// +0.4%).
+// Hagen-Poiseuille's, with either layer construction: the paper's layers at
+// M = 10, from where the study (docs/validation.md) measures it within 1%;
+// the prism layers at the sample case's own M = 7 (-1.06% in the study,
+// validation/notes-prisms.md; at M = 10 the voxel tube's are +2.15% off,
+// the exact cylinder's +0.32%, and from M = 14 on the tube the prisms' cells
+// miss the dihedral floor and the run builds the paper's layers instead).
 void check_tube_pressure_drop(const std::string& layers, int M)
 {
     const TempDir tmp;
@@ -137,11 +138,11 @@ void check_tube_pressure_drop(const std::string& layers, int M)
     // 24 mm tube sees Poiseuille flow.
     constexpr double nu = 1e-3, U = 0.1;
     copy_case("tube", dir, "[flow]\nviscosity = 1e-3\ninlet_speed = 0.1\n");
-    // Not at the sample case's M = 7: 5% off (docs/validation.md: -4.98%
-    // with the paper's layers), the discretisation's own error at 7 layers
-    // across, so a check there would sit on its tolerance.
-    ASSERT_TRUE(edit_case(dir, R"((^|\n)M = 7 )", "$1M = " + std::to_string(M) + " "))
-        << "no M = 7 line in cases/tube/scalemesh.toml";
+    // (The paper's layers at M = 7 are 5% off, docs/validation.md: -4.98%,
+    // the discretisation's own error at 7 layers across.)
+    if (M != 7)
+        ASSERT_TRUE(edit_case(dir, R"((^|\n)M = 7 )", "$1M = " + std::to_string(M) + " "))
+            << "no M = 7 line in cases/tube/scalemesh.toml";
     ASSERT_TRUE(edit_case(dir, R"((^|\n)\[volume\]\n)", "$1[volume]\nlayers = \"" + layers + "\"\n"))
         << "no [volume] table in cases/tube/scalemesh.toml";
     const CommandResult r = run_scalemesh({"run", dir.string(), "-q"});
@@ -189,7 +190,7 @@ void check_tube_pressure_drop(const std::string& layers, int M)
 TEST(SampleCaseFlow, TubePressureDropMatchesHagenPoiseuille)
 {
     if (!have_openfoam()) GTEST_SKIP() << "OpenFOAM is not installed";
-    check_tube_pressure_drop("prisms", 14);
+    check_tube_pressure_drop("prisms", 7);
     check_tube_pressure_drop("delaunay", 10);
 }
 
