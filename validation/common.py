@@ -217,44 +217,40 @@ def boundary_faces(case):
 # ------------------------------------------------------ snappyHexMesh peer
 
 
-def snappy_tube(case, stl, z0, z1, half_width, h, location_z, layers, regions=()):
-    """snappyHexMesh on a tube along z whose wall is constant/triSurface/`stl`
-    (mm): a background block of h mm cubes from z0 to z1 (its end faces
-    become the inlet and outlet patches), at least half_width + 2 h wide in x
-    and y, castellated and snapped to the STL, each region of `regions`
-    ((level, za, zb, radius): a cylinder along z refined to that level)
-    refined inside, then `layers` wall layers (relative sizes, expansion
-    ratio 1.2, the last layer 0.5 of the cell next to it), as
-    snappyHexMesh's tutorials set them; then scaled to metres. The case's
-    system/ must hold the rest (controlDict, schemes, solution). Returns the
-    seconds taken and snappyHexMesh's layer figures: the wall layers on
-    average and the percentage of the asked thickness."""
-    head = "FoamFile { version 2.0; format ascii; class dictionary; object %s; }\n"
-    nxy, nz = 2 * int(math.ceil((half_width + 2 * h) / h)), int(round((z1 - z0) / h))
-    e = nxy * h / 2
+SNAPPY_HEAD = "FoamFile { version 2.0; format ascii; class dictionary; object %s; }\n"
+
+
+def write_block_mesh_dict(case, lo, hi, n, boundary):
+    """system/blockMeshDict: one block of n = (nx, ny, nz) cells from corner
+    lo to corner hi (x, y, z), its vertices numbered as blockMesh's hex (0 1
+    2 3 4 5 6 7), and `boundary` the text inside boundary ( ... )."""
     with open(os.path.join(case, "system", "blockMeshDict"), "w") as f:
-        f.write(head % "blockMeshDict")
+        f.write(SNAPPY_HEAD % "blockMeshDict")
         f.write("convertToMeters 1;\nvertices (")
-        for z in (z0, z1):
-            for x, y in ((-e, -e), (e, -e), (e, e), (-e, e)):
+        for z in (lo[2], hi[2]):
+            for x, y in ((lo[0], lo[1]), (hi[0], lo[1]), (hi[0], hi[1]), (lo[0], hi[1])):
                 f.write(" (%.9g %.9g %.9g)" % (x, y, z))
         f.write(" );\nblocks ( hex (0 1 2 3 4 5 6 7) (%d %d %d) simpleGrading (1 1 1) );\nedges ();\n"
-                "boundary ( inlet { type patch; faces ( (0 3 2 1) ); } outlet { type patch; faces ( (4 5 6 7) ); }\n"
-                "  sides { type patch; faces ( (0 1 5 4) (2 3 7 6) (1 2 6 5) (0 4 7 3) ); } );\n" % (nxy, nxy, nz))
-    geometry = "".join("  region%d { type searchableCylinder; point1 (0 0 %.9g); point2 (0 0 %.9g); radius %.9g; }\n"
-                       % (i, za, zb, r) for i, (_, za, zb, r) in enumerate(regions))
-    refinement = "".join("    region%d { mode inside; levels ((1e15 %d)); }\n" % (i, level)
-                         for i, (level, _, _, _) in enumerate(regions))
+                "boundary (%s);\n" % (tuple(n) + (boundary,)))
+
+
+def write_snappy_dict(case, geometry, surfaces, regions, location, layers):
+    """system/snappyHexMeshDict: `geometry` the text inside geometry { ... },
+    `surfaces` inside refinementSurfaces { ... }, `regions` inside
+    refinementRegions { ... }, `location` the locationInMesh point, and
+    `layers` wall layers on the patch named wall (relative sizes, expansion
+    ratio 1.2, the last layer 0.5 of the cell next to it), as
+    snappyHexMesh's tutorials set them."""
     with open(os.path.join(case, "system", "snappyHexMeshDict"), "w") as f:
-        f.write(head % "snappyHexMeshDict")
+        f.write(SNAPPY_HEAD % "snappyHexMeshDict")
         f.write("castellatedMesh true; snap true; addLayers true;\n"
-                "geometry {\n  %s { type triSurfaceMesh; name wall; }\n%s}\n"
+                "geometry {\n%s}\n"
                 "castellatedMeshControls {\n"
                 "  maxLocalCells 100000000; maxGlobalCells 200000000; minRefinementCells 0; maxLoadUnbalance 0.1;\n"
                 "  nCellsBetweenLevels 3; features ();\n"
-                "  refinementSurfaces { wall { level (0 0); patchInfo { type wall; } } }\n"
+                "  refinementSurfaces {%s}\n"
                 "  resolveFeatureAngle 30;\n  refinementRegions {\n%s  }\n"
-                "  locationInMesh (0.0123 0.0234 %.9g); allowFreeStandingZoneFaces true;\n}\n"
+                "  locationInMesh (%.9g %.9g %.9g); allowFreeStandingZoneFaces true;\n}\n"
                 "snapControls { nSmoothPatch 3; tolerance 2.0; nSolveIter 100; nRelaxIter 5; nFeatureSnapIter 10;\n"
                 "  implicitFeatureSnap true; explicitFeatureSnap false; multiRegionFeatureSnap false; }\n"
                 "addLayersControls {\n"
@@ -269,7 +265,14 @@ def snappy_tube(case, stl, z0, z1, half_width, h, location_z, layers, regions=()
                 "  minVolRatio 0.01; minTriangleTwist -1; nSmoothScale 4; errorReduction 0.75;\n"
                 "  relaxed { maxNonOrtho 75; }\n}\n"
                 "writeFlags ( ); mergeTolerance 1e-6;\n"
-                % (stl, geometry, refinement, location_z, layers))
+                % ((geometry, surfaces, regions) + tuple(location) + (layers,)))
+
+
+def run_snappy(case):
+    """blockMesh and snappyHexMesh on the case (its dictionaries written),
+    then scaled from mm to metres. Returns the seconds taken and
+    snappyHexMesh's layer figures for the patch wall: the layers on average
+    and the percentage of the asked thickness."""
     t = time.time()
     run(["blockMesh", "-case", "."], case, "log.blockMesh")
     text = run(["snappyHexMesh", "-case", ".", "-overwrite"], case, "log.snappyHexMesh")
@@ -278,12 +281,39 @@ def snappy_tube(case, stl, z0, z1, half_width, h, location_z, layers, regions=()
     if not m:
         raise RuntimeError("snappyHexMesh added no wall layers in " + case)
     run(["transformPoints", "-case", ".", "-scale", "(1e-3 1e-3 1e-3)"], case, "log.transformPoints")
+    return time.time() - t, float(m.group(1)), float(m.group(2))
+
+
+def snappy_tube(case, stl, z0, z1, half_width, h, location_z, layers, regions=()):
+    """snappyHexMesh on a tube along z whose wall is constant/triSurface/`stl`
+    (mm): a background block of h mm cubes from z0 to z1 (its end faces
+    become the inlet and outlet patches), at least half_width + 2 h wide in x
+    and y, castellated and snapped to the STL, each region of `regions`
+    ((level, za, zb, radius): a cylinder along z refined to that level)
+    refined inside, then `layers` wall layers (write_snappy_dict); then
+    scaled to metres. The case's system/ must hold the rest (controlDict,
+    schemes, solution). Returns the seconds taken and snappyHexMesh's layer
+    figures: the wall layers on average and the percentage of the asked
+    thickness."""
+    nxy, nz = 2 * int(math.ceil((half_width + 2 * h) / h)), int(round((z1 - z0) / h))
+    e = nxy * h / 2
+    write_block_mesh_dict(case, (-e, -e, z0), (e, e, z1), (nxy, nxy, nz),
+                          " inlet { type patch; faces ( (0 3 2 1) ); } outlet { type patch; faces ( (4 5 6 7) ); }\n"
+                          "  sides { type patch; faces ( (0 1 5 4) (2 3 7 6) (1 2 6 5) (0 4 7 3) ); } ")
+    geometry = "  %s { type triSurfaceMesh; name wall; }\n" % stl
+    geometry += "".join("  region%d { type searchableCylinder; point1 (0 0 %.9g); point2 (0 0 %.9g); radius %.9g; }\n"
+                        % (i, za, zb, r) for i, (_, za, zb, r) in enumerate(regions))
+    refinement = "".join("    region%d { mode inside; levels ((1e15 %d)); }\n" % (i, level)
+                         for i, (level, _, _, _) in enumerate(regions))
+    write_snappy_dict(case, geometry, " wall { level (0 0); patchInfo { type wall; } } ", refinement,
+                      (0.0123, 0.0234, location_z), layers)
+    result = run_snappy(case)
     # The block's sides lie outside the tube: snappyHexMesh drops their
     # emptied patch, leaving the three the template's fields name.
     boundary = open(os.path.join(case, "constant", "polyMesh", "boundary")).read()
     if re.search(r"\n\s*sides\s*\{", boundary):
         raise RuntimeError("faces of the block's sides are left after snappyHexMesh in " + case)
-    return time.time() - t, float(m.group(1)), float(m.group(2))
+    return result
 
 
 # ---------------------------------------------------------------- the page

@@ -28,8 +28,9 @@ import tempfile
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
-def prism_case(source, target):
-    """Copies case directory `source` to `target` with layers = "prisms"."""
+def copy_case(source, target):
+    """Copies case directory `source` to `target`, its input file paths made
+    absolute. Returns the path of the copy's scalemesh.toml."""
     shutil.copytree(source, target)
     path = os.path.join(target, "scalemesh.toml")
     with open(path) as f:
@@ -42,6 +43,16 @@ def prism_case(source, target):
         return f'{match.group(1)}"{file}"'
 
     text = re.sub(r'^(\s*file\s*=\s*)"([^"]*)"', absolute, text, flags=re.M)
+    with open(path, "w") as f:
+        f.write(text)
+    return path
+
+
+def prism_case(source, target):
+    """Copies case directory `source` to `target` with layers = "prisms"."""
+    path = copy_case(source, target)
+    with open(path) as f:
+        text = f.read()
     if re.search(r"^layers\s*=", text, flags=re.M):  # a case that chooses its layers
         text = re.sub(r"^layers\s*=.*$", 'layers = "prisms"', text, count=1, flags=re.M)
     elif re.search(r"^\[volume\]\s*$", text, flags=re.M):

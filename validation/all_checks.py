@@ -1,0 +1,369 @@
+#!/usr/bin/env python3
+"""checkMesh's checks, default and all, on scalemesh's and snappyHexMesh's
+meshes of the same surfaces.
+
+For each sample case of cases/ (or those named) the case directory is copied
+into a scratch directory (its input paths made absolute, `surface.msh` added
+to its surface outputs) and meshed by `scalemesh run` with the case's own
+settings (the default prism layers unless the case chooses otherwise:
+aorta_mask chooses "delaunay"). checkMesh then runs on its polyMesh twice:
+with the default checks and with `-allGeometry -allTopology`; a run's
+failed checks are its lines starting with `***` and its closing
+"Failed N mesh checks." (or "Mesh OK.").
+
+snappyHexMesh then meshes the same surface: scalemesh's surface.msh (the
+boundary of its mesh, in mm, each physical surface a patch: wall and the
+openings' caps) written as an ASCII STL with one solid per patch and named
+after the polyMesh's patches, the wall a `wall`, each cap a `patch`. A
+background block of h mm cubes 2 h larger than the surface's bounding box on
+every side (its faces end up outside and are dropped), castellated at level
+0 and snapped to the STL, then 3 wall layers with tube_validation.py's
+snappyHexMesh settings (common.write_snappy_dict), scaled to metres; the
+locationInMesh is the centroid of scalemesh's tet with the largest inscribed
+sphere. h is chosen so that the estimate V / h^3 + 3 A_wall / h^2 (the cubes
+inside the lumen and 3 layers on the wall) equals scalemesh's cell count.
+The same two checkMesh runs follow.
+
+`cylinder-M<M>` (--cylinder M ...) is tube_validation.py's `--surface
+cylinder` case: scalemesh on the exact cylinder STL (scalemesh_case), and
+its snappyHexMesh peer (snappy_case, the block's end faces the inlet and
+outlet), h chosen by the same estimate from the cylinder's volume and wall.
+
+Results go into validation/prisms/all-checks.json (merged with what it
+holds, by case), one Markdown row per case printed.
+
+    /usr/bin/python3 validation/all_checks.py [--scalemesh build/src/cli/scalemesh] [--cylinder 7 10] [case ...]
+"""
+
+import argparse
+import json
+import math
+import os
+import re
+import shutil
+import sys
+import tempfile
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from common import REPO, log, run, run_snappy, write_block_mesh_dict, write_snappy_dict  # noqa: E402
+from prism_layers import copy_case  # noqa: E402
+from tube_validation import TUBE_HALF, TUBE_R, case_from_template, scalemesh_case, snappy_case  # noqa: E402
+
+LAYERS = 3                        # snappyHexMesh's wall layers, as tube_validation.py's peer
+RETRY_SECONDS = 90                # a snappyHexMesh run this quick is redone once when its cells miss by 2 times
+RESULTS = os.path.join(REPO, "validation", "prisms", "all-checks.json")
+
+
+# ---------------------------------------------------------------- checkMesh
+
+def check_mesh(case, all_checks):
+    """checkMesh on the case (default checks, or -allGeometry -allTopology):
+    its cells, the failed-check count it states and its `***` lines."""
+    cmd = ["checkMesh", "-case", "."] + (["-allGeometry", "-allTopology"] if all_checks else [])
+    logname = "log.checkMesh-all" if all_checks else "log.checkMesh"
+    try:
+        text = run(cmd, case, logname)
+        code = 0
+    except RuntimeError:          # the log holds the output whatever the exit code
+        text = open(os.path.join(case, logname)).read()
+        code = 1
+    m = re.search(r"(?m)^\s*cells:\s+(\d+)", text)
+    failed = re.search(r"(?m)^\s*Failed (\d+) mesh checks\.", text)
+    stars = [line.strip() for line in text.splitlines() if line.strip().startswith("***")]
+    return {"cells": int(m.group(1)) if m else None,
+            "mesh_ok": "Mesh OK." in text,
+            "failed": int(failed.group(1)) if failed else 0,
+            "failed_checks": stars,
+            "exit_code": code}
+
+
+def check_both(case):
+    return {"default": check_mesh(case, False), "all": check_mesh(case, True)}
+
+
+# ---------------------------------------------------------------- surfaces
+
+def patch_names(case):
+    """The polyMesh's patches in order: (name, type, nFaces)."""
+    text = open(os.path.join(case, "constant", "polyMesh", "boundary")).read()
+    out = []
+    for m in re.finditer(r"\n\s*(\w+)\s*\{([^}]*)\}", text):
+        body = m.group(2)
+        if "nFaces" in body:
+            out.append((m.group(1), re.search(r"type\s+(\w+);", body).group(1),
+                        int(re.search(r"nFaces\s+(\d+)", body).group(1))))
+    return out
+
+
+def surface_triangles(case):
+    """scalemesh's surface.msh: per patch of the polyMesh (in order, matched
+    to the physical surfaces by order and face count), its type and its
+    triangles as an (n, 3, 3) array in mm."""
+    import meshio
+    import numpy as np
+
+    mesh = meshio.read(os.path.join(case, "surface.msh"))
+    by_tag = {}
+    for block, tags in zip(mesh.cells, mesh.cell_data["gmsh:physical"]):
+        if block.type != "triangle":
+            continue
+        for tag in np.unique(tags):
+            by_tag.setdefault(int(tag), []).append(block.data[tags == tag])
+    groups = [np.concatenate(by_tag[t]) for t in sorted(by_tag)]
+    patches = patch_names(case)
+    if [len(g) for g in groups] != [n for _, _, n in patches]:
+        raise RuntimeError("surface.msh's physical surfaces (%s faces) are not the polyMesh's patches (%s)"
+                           % ([len(g) for g in groups], patches))
+    return [(name, kind, mesh.points[g]) for (name, kind, _), g in zip(patches, groups)]
+
+
+def write_patch_stl(path, patches):
+    """An ASCII STL, one solid per patch."""
+    import numpy as np
+
+    with open(path, "w") as f:
+        for name, _, tris in patches:
+            f.write("solid %s\n" % name)
+            normals = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+            normals /= np.maximum(np.linalg.norm(normals, axis=1), 1e-300)[:, None]
+            for n, t in zip(normals, tris):
+                f.write("facet normal %.9g %.9g %.9g\nouter loop\n" % tuple(n))
+                for p in t:
+                    f.write("vertex %.9g %.9g %.9g\n" % tuple(p))
+                f.write("endloop\nendfacet\n")
+            f.write("endsolid %s\n" % name)
+
+
+def volume_and_wall(patches):
+    """The closed surface's enclosed volume (mm^3) and its wall area (mm^2)."""
+    import numpy as np
+
+    tris = np.concatenate([t for _, _, t in patches])
+    volume = abs(np.einsum("ij,ij->i", tris[:, 0], np.cross(tris[:, 1], tris[:, 2])).sum()) / 6
+    wall = sum(0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1).sum()
+               for _, kind, t in patches if kind == "wall")
+    return volume, wall
+
+
+def deep_point(case):
+    """The centroid of scalemesh's tet (mesh.msh, mm) with the largest
+    inscribed sphere: a point well inside the lumen."""
+    import gmsh  # Debian python3-gmsh (meshio refuses the point data of scalemesh's mesh.msh)
+    import numpy as np
+
+    gmsh.initialize(["gmsh", "-nopopup"])
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.open(os.path.join(case, "mesh.msh"))
+        tags, coords, _ = gmsh.model.mesh.getNodes()
+        _, nodes = gmsh.model.mesh.getElementsByType(4)
+    finally:
+        gmsh.finalize()
+    index = np.zeros(int(tags.max()) + 1, dtype=int)
+    index[tags.astype(int)] = np.arange(len(tags))
+    p = coords.reshape(-1, 3)[index[nodes.astype(int)].reshape(-1, 4)]
+    volume = np.abs(np.einsum("ij,ij->i", p[:, 1] - p[:, 0], np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 0]))) / 6
+    area = sum(0.5 * np.linalg.norm(np.cross(p[:, b] - p[:, a], p[:, c] - p[:, a]), axis=1)
+               for a, b, c in ((0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)))
+    best = np.argmax(3 * volume / area)
+    return tuple(p[best].mean(axis=0))
+
+
+def cell_size(volume, wall, cells):
+    """h (mm) with volume / h^3 + LAYERS * wall / h^2 = cells."""
+    lo, hi = 1e-3, 1e3
+    for _ in range(200):
+        h = math.sqrt(lo * hi)
+        if volume / h ** 3 + LAYERS * wall / h ** 2 > cells:
+            lo = h
+        else:
+            hi = h
+    return h
+
+
+def snappy_surface(case, scalemesh_dir, cells, scale=1.0):
+    """snappyHexMesh on scalemesh's surface (module docstring) in `case`,
+    about `cells` cells, its h the estimate's times `scale`. Returns h (mm),
+    the seconds taken, the wall layers on average and the percentage of the
+    asked thickness."""
+    import numpy as np
+
+    case_from_template(case, scalemesh_dir)
+    patches = surface_triangles(scalemesh_dir)
+    os.makedirs(os.path.join(case, "constant", "triSurface"))
+    write_patch_stl(os.path.join(case, "constant", "triSurface", "surface.stl"), patches)
+    volume, wall = volume_and_wall(patches)
+    h = scale * cell_size(volume, wall, cells)
+    points = np.concatenate([t.reshape(-1, 3) for _, _, t in patches])
+    lo, hi = points.min(axis=0) - 2 * h, points.max(axis=0) + 2 * h
+    n = np.ceil((hi - lo) / h).astype(int)
+    hi = lo + n * h
+    write_block_mesh_dict(case, lo, hi, n, " box { type patch; faces ( (0 3 2 1) (4 5 6 7) (0 1 5 4) (2 3 7 6) "
+                          "(1 2 6 5) (0 4 7 3) ); } ")
+    names = "".join("    %s { name %s; }\n" % (name, name) for name, _, _ in patches)
+    geometry = "  surface.stl { type triSurfaceMesh; name surface;\n  regions {\n%s  } }\n" % names
+    surfaces = " surface { level (0 0); regions {\n%s } } " % "".join(
+        "    %s { level (0 0); patchInfo { type %s; } }\n" % (name, "wall" if kind == "wall" else "patch")
+        for name, kind, _ in patches)
+    write_snappy_dict(case, geometry, surfaces, "", deep_point(scalemesh_dir), LAYERS)
+    seconds, layers_made, thickness = run_snappy(case)
+    return h, seconds, layers_made, thickness
+
+
+# ---------------------------------------------------------------- cases
+
+def one_case(name, scratch, binary):
+    """scalemesh and snappyHexMesh on one sample case: a results dict."""
+    result = {"case": name}
+    sm = os.path.join(scratch, name, "scalemesh")
+    os.makedirs(os.path.dirname(sm))
+    toml = copy_case(os.path.join(REPO, "cases", name), sm)
+    text = open(toml).read()
+    text, k = re.subn(r"(?m)^(\s*surface\s*=\s*)\[[^\]]*\]", r'\1["surface.msh"]', text)
+    if not k:
+        text = re.sub(r"(?m)^\[output\]\s*$", '[output]\nsurface = ["surface.msh"]', text) \
+            if re.search(r"(?m)^\[output\]\s*$", text) else text + '\n[output]\nsurface = ["surface.msh"]\n'
+    open(toml, "w").write(text)
+    t = time.time()
+    try:
+        run([binary, "run", sm, "-q"], sm, "log.scalemesh-run")
+    except RuntimeError as e:
+        result["scalemesh"] = {"error": str(e)[-2000:]}
+        return result
+    report = json.load(open(os.path.join(sm, "report.json")))
+    result["scalemesh"] = {"seconds": round(time.time() - t, 1),
+                           "layers_built": report.get("volume", {}).get("layers_built")}
+    result["scalemesh"].update(check_both(sm))
+    log("%s: scalemesh %s cells, failed checks %d default, %d all"
+        % (name, result["scalemesh"]["default"]["cells"], result["scalemesh"]["default"]["failed"],
+           result["scalemesh"]["all"]["failed"]))
+    sn = os.path.join(scratch, name, "snappy")
+    target = result["scalemesh"]["default"]["cells"]
+    scale, tries = 1.0, []
+    while True:
+        if os.path.exists(sn):
+            shutil.rmtree(sn)
+        try:
+            h, seconds, layers_made, thickness = snappy_surface(sn, sm, target, scale)
+        except Exception as e:  # noqa: BLE001 -- recorded, the next case runs
+            result["snappy"] = {"error": str(e)[-2000:], "earlier_tries": tries}
+            log("%s: snappyHexMesh failed: %s" % (name, str(e)[-500:]))
+            return result
+        result["snappy"] = {"h_mm": round(h, 4), "seconds": round(seconds, 1), "wall_layers_mean": layers_made,
+                            "thickness_percent": thickness, "patches": [p for p, _, _ in patch_names(sn)]}
+        result["snappy"].update(check_both(sn))
+        cells = result["snappy"]["default"]["cells"]
+        # One retry when the estimate missed by more than a factor of 2 and
+        # the run was quick: h scaled by the cube root of the miss.
+        if tries or 0.5 <= cells / target <= 2 or seconds > RETRY_SECONDS:
+            break
+        tries.append({"h_mm": round(h, 4), "cells": cells, "seconds": round(seconds, 1)})
+        scale *= (cells / target) ** (1 / 3)
+    result["snappy"]["earlier_tries"] = tries
+    log("%s: snappyHexMesh h %.3g mm, %s cells, failed checks %d default, %d all, %.0f s"
+        % (name, h, result["snappy"]["default"]["cells"], result["snappy"]["default"]["failed"],
+           result["snappy"]["all"]["failed"], seconds))
+    return result
+
+
+def cylinder_case(M, scratch, binary):
+    """tube_validation.py's --surface cylinder case at M and its
+    snappyHexMesh peer."""
+    name = "cylinder-M%g" % M
+    result = {"case": name}
+    sm = os.path.join(scratch, name, "scalemesh")
+    os.makedirs(os.path.dirname(sm))
+    seconds = scalemesh_case(binary, M, sm, "cylinder")
+    report = json.load(open(os.path.join(sm, "report.json")))
+    result["scalemesh"] = {"seconds": round(seconds, 1),
+                           "layers_built": report.get("volume", {}).get("layers_built")}
+    result["scalemesh"].update(check_both(sm))
+    cells = result["scalemesh"]["default"]["cells"]
+    length = 2 * TUBE_HALF
+    h = cell_size(math.pi * TUBE_R ** 2 * length, 2 * math.pi * TUBE_R * length, cells)
+    sn = os.path.join(scratch, name, "snappy")
+    try:
+        seconds = snappy_case(h, sn, sm, LAYERS)
+    except Exception as e:  # noqa: BLE001
+        result["snappy"] = {"h_mm": round(h, 4), "error": str(e)[-2000:]}
+        return result
+    result["snappy"] = {"h_mm": round(h, 4), "seconds": round(seconds, 1),
+                        "patches": [p for p, _, _ in patch_names(sn)]}
+    result["snappy"].update(check_both(sn))
+    log("%s: scalemesh %d cells (%d / %d failed), snappyHexMesh h %.3g mm %s cells (%d / %d failed)"
+        % (name, cells, result["scalemesh"]["default"]["failed"], result["scalemesh"]["all"]["failed"], h,
+           result["snappy"]["default"]["cells"], result["snappy"]["default"]["failed"],
+           result["snappy"]["all"]["failed"]))
+    return result
+
+
+def short(check):
+    """A `***` line's check, without its figures."""
+    text = check.lstrip("*").strip()
+    text = re.split(r"\s*=|\s*:|,| found| detected", text)[0]
+    return text.strip() or check
+
+
+def row(r):
+    cols = [r["case"]]
+    for mesher in ("scalemesh", "snappy"):
+        m = r.get(mesher)
+        if not m:
+            cols += ["not run", "", "", ""]
+        elif "error" in m:
+            cols += ["failed: " + m["error"].strip().splitlines()[0][:80], "", "", ""]
+        else:
+            names = sorted({short(c) for c in m["all"]["failed_checks"]})
+            cols += ["{:,}".format(m["default"]["cells"]) + (" (h %.3g mm)" % m["h_mm"] if "h_mm" in m else ""),
+                     str(m["default"]["failed"]), str(m["all"]["failed"]), "; ".join(names) or "-"]
+    return "| " + " | ".join(cols) + " |"
+
+
+HEADER = ("| case | scalemesh cells | failed, default | failed, all | checks failed (all) | snappyHexMesh cells "
+          "| failed, default | failed, all | checks failed (all) |\n|---|---|---|---|---|---|---|---|---|")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("cases", nargs="*", help="case names under cases/ (default: every case)")
+    ap.add_argument("--scalemesh", default=os.path.join(REPO, "build", "src", "cli", "scalemesh"))
+    ap.add_argument("--cylinder", type=float, nargs="*", default=[7, 10],
+                    help="M of tube_validation.py's --surface cylinder case (none to leave it out)")
+    ap.add_argument("--out", default=RESULTS)
+    ap.add_argument("--keep", help="a directory to keep the meshes in (default: a temporary one, removed)")
+    args = ap.parse_args()
+    binary = os.path.abspath(args.scalemesh)
+    names = args.cases or sorted(d for d in os.listdir(os.path.join(REPO, "cases"))
+                                 if os.path.isfile(os.path.join(REPO, "cases", d, "scalemesh.toml")))
+    results = {}
+    if os.path.exists(args.out):
+        results = {r["case"]: r for r in json.load(open(args.out))}
+
+    def save(r):
+        results[r["case"]] = r
+        os.makedirs(os.path.dirname(args.out), exist_ok=True)
+        with open(args.out, "w") as f:
+            json.dump(sorted(results.values(), key=lambda x: x["case"]), f, indent=1)
+
+    scratch = args.keep or tempfile.mkdtemp(prefix="all-checks-")
+    os.makedirs(scratch, exist_ok=True)
+    done = []
+    try:
+        for M in args.cylinder:
+            done.append(cylinder_case(M, scratch, binary))
+            save(done[-1])
+        for name in names:
+            done.append(one_case(name, scratch, binary))
+            save(done[-1])
+    finally:
+        if not args.keep:
+            shutil.rmtree(scratch, ignore_errors=True)
+    print(HEADER)
+    for r in done:
+        print(row(r))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
