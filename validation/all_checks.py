@@ -20,7 +20,8 @@ every side (its faces end up outside and are dropped), castellated at level
 0 and snapped to the STL, then 3 wall layers with tube_validation.py's
 snappyHexMesh settings (common.write_snappy_dict), scaled to metres; the
 locationInMesh is the centroid of scalemesh's tet with the largest inscribed
-sphere. h is chosen so that the estimate V / h^3 + 3 A_wall / h^2 (the cubes
+sphere (one per disconnected region of scalemesh's mesh, as
+locationsInMesh: twin_tubes). h is chosen so that the estimate V / h^3 + 3 A_wall / h^2 (the cubes
 inside the lumen and 3 layers on the wall) equals scalemesh's cell count.
 The same two checkMesh runs follow.
 
@@ -46,7 +47,8 @@ import tempfile
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import REPO, log, run, run_snappy, write_block_mesh_dict, write_snappy_dict  # noqa: E402
+from common import (REPO, log, read_polymesh, run, run_snappy, snappy_layers,  # noqa: E402
+                    write_block_mesh_dict, write_snappy_dict)
 from prism_layers import copy_case  # noqa: E402
 from tube_validation import TUBE_HALF, TUBE_R, case_from_template, scalemesh_case, snappy_case  # noqa: E402
 
@@ -78,8 +80,49 @@ def check_mesh(case, all_checks):
             "exit_code": code}
 
 
+def cell_kinds(case):
+    """The polyMesh's cells by shape: tet, prism, pyramid, hex, or
+    "polyhedron F/P" (F faces, P points)."""
+    _, faces, owner, neighbour = read_polymesh(case)
+    nfaces, points = {}, {}
+    for i, face in enumerate(faces):
+        for cell in (owner[i], neighbour[i]) if i < len(neighbour) else (owner[i],):
+            nfaces[cell] = nfaces.get(cell, 0) + 1
+            points.setdefault(cell, set()).update(face)
+    names = {(4, 4): "tet", (5, 6): "prism", (5, 5): "pyramid", (6, 8): "hex"}
+    return {c: names.get((n, len(points[c])), "polyhedron %d/%d" % (n, len(points[c]))) for c, n in nfaces.items()}
+
+
+def failed_cells(case):
+    """The cell sets checkMesh -allGeometry -allTopology wrote (concaveCells,
+    underdeterminedCells, ...; twoInternalFacesCells is a warning's, not a
+    failed check's): per set, its cells counted by shape."""
+    sets = os.path.join(case, "constant", "polyMesh", "sets")
+    if not os.path.isdir(sets):
+        return {}
+    kinds, out = None, {}
+    for name in sorted(os.listdir(sets)):
+        path = os.path.join(sets, name)
+        if "cellSet" not in open(path).read(2000) or name.startswith("region"):
+            continue   # region0, region1, ...: the mesh's disconnected regions, no check's
+        kinds = kinds or cell_kinds(case)
+        counts = {}
+        text = re.sub(r"//[^\n]*", "", open(path).read())
+        m = re.search(r"(\d+)\s*\(([^)]*)\)", text[text.index("}") + 1:])
+        for cell in m.group(2).split():
+            kind = kinds[int(cell)]
+            counts[kind] = counts.get(kind, 0) + 1
+        out[name] = counts
+    return out
+
+
 def check_both(case):
-    return {"default": check_mesh(case, False), "all": check_mesh(case, True)}
+    result = {"default": check_mesh(case, False), "all": check_mesh(case, True)}
+    result["cell_shapes"] = {}
+    for kind in cell_kinds(case).values():
+        result["cell_shapes"][kind] = result["cell_shapes"].get(kind, 0) + 1
+    result["failed_cell_sets"] = failed_cells(case)
+    return result
 
 
 # ---------------------------------------------------------------- surfaces
@@ -146,9 +189,10 @@ def volume_and_wall(patches):
     return volume, wall
 
 
-def deep_point(case):
-    """The centroid of scalemesh's tet (mesh.msh, mm) with the largest
-    inscribed sphere: a point well inside the lumen."""
+def deep_points(case):
+    """Per connected region of scalemesh's tets (mesh.msh, mm; tets joined
+    by shared nodes), the centroid of its tet with the largest inscribed
+    sphere: a point well inside the lumen."""
     import gmsh  # Debian python3-gmsh (meshio refuses the point data of scalemesh's mesh.msh)
     import numpy as np
 
@@ -166,8 +210,19 @@ def deep_point(case):
     volume = np.abs(np.einsum("ij,ij->i", p[:, 1] - p[:, 0], np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 0]))) / 6
     area = sum(0.5 * np.linalg.norm(np.cross(p[:, b] - p[:, a], p[:, c] - p[:, a]), axis=1)
                for a, b, c in ((0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)))
-    best = np.argmax(3 * volume / area)
-    return tuple(p[best].mean(axis=0))
+    inradius = 3 * volume / area
+    tets = index[nodes.astype(int)].reshape(-1, 4)
+    label = np.arange(len(tags))
+    while True:   # each node labelled with the least node index of its region
+        low = label[tets].min(axis=1)
+        new = label.copy()
+        np.minimum.at(new, tets.ravel(), np.repeat(low, 4))
+        if np.array_equal(new, label):
+            break
+        label = new
+    region = label[tets[:, 0]]
+    return [tuple(p[np.flatnonzero(region == r)[np.argmax(inradius[region == r])]].mean(axis=0))
+            for r in np.unique(region)]
 
 
 def cell_size(volume, wall, cells):
@@ -206,7 +261,8 @@ def snappy_surface(case, scalemesh_dir, cells, scale=1.0):
     surfaces = " surface { level (0 0); regions {\n%s } } " % "".join(
         "    %s { level (0 0); patchInfo { type %s; } }\n" % (name, "wall" if kind == "wall" else "patch")
         for name, kind, _ in patches)
-    write_snappy_dict(case, geometry, surfaces, "", deep_point(scalemesh_dir), LAYERS)
+    points = deep_points(scalemesh_dir)
+    write_snappy_dict(case, geometry, surfaces, "", points[0] if len(points) == 1 else points, LAYERS)
     seconds, layers_made, thickness = run_snappy(case)
     return h, seconds, layers_made, thickness
 
@@ -288,8 +344,9 @@ def cylinder_case(M, scratch, binary):
     except Exception as e:  # noqa: BLE001
         result["snappy"] = {"h_mm": round(h, 4), "error": str(e)[-2000:]}
         return result
-    result["snappy"] = {"h_mm": round(h, 4), "seconds": round(seconds, 1),
-                        "patches": [p for p, _, _ in patch_names(sn)]}
+    layers_made, thickness = snappy_layers(sn)
+    result["snappy"] = {"h_mm": round(h, 4), "seconds": round(seconds, 1), "wall_layers_mean": layers_made,
+                        "thickness_percent": thickness, "patches": [p for p, _, _ in patch_names(sn)]}
     result["snappy"].update(check_both(sn))
     log("%s: scalemesh %d cells (%d / %d failed), snappyHexMesh h %.3g mm %s cells (%d / %d failed)"
         % (name, cells, result["scalemesh"]["default"]["failed"], result["scalemesh"]["all"]["failed"], h,
@@ -315,13 +372,25 @@ def row(r):
             cols += ["failed: " + m["error"].strip().splitlines()[0][:80], "", "", ""]
         else:
             names = sorted({short(c) for c in m["all"]["failed_checks"]})
-            cols += ["{:,}".format(m["default"]["cells"]) + (" (h %.3g mm)" % m["h_mm"] if "h_mm" in m else ""),
+            if mesher == "scalemesh":
+                note = {"prisms": "prism layers", "delaunay": "Delaunay layers"}.get(m.get("layers_built"), "")
+            else:
+                note = "h %.3g mm, %s wall layers" % (m["h_mm"], m.get("wall_layers_mean", "?"))
+            cols += ["{:,}".format(m["default"]["cells"]) + (" (%s)" % note if note else ""),
                      str(m["default"]["failed"]), str(m["all"]["failed"]), "; ".join(names) or "-"]
+    sm, sn = r.get("scalemesh", {}), r.get("snappy", {})
+    cols.append("yes" if "all" in sm and "all" in sn and sm["all"]["failed"] <= sn["all"]["failed"] else
+                "no" if "all" in sm and "all" in sn else "-")
     return "| " + " | ".join(cols) + " |"
 
 
 HEADER = ("| case | scalemesh cells | failed, default | failed, all | checks failed (all) | snappyHexMesh cells "
-          "| failed, default | failed, all | checks failed (all) |\n|---|---|---|---|---|---|---|---|---|")
+          "| failed, default | failed, all | checks failed (all) | all: scalemesh <= snappyHexMesh |\n"
+          "|---|---|---|---|---|---|---|---|---|---|")
+
+
+def table(results):
+    return HEADER + "\n" + "\n".join(row(r) for r in results)
 
 
 def main():
@@ -332,7 +401,11 @@ def main():
                     help="M of tube_validation.py's --surface cylinder case (none to leave it out)")
     ap.add_argument("--out", default=RESULTS)
     ap.add_argument("--keep", help="a directory to keep the meshes in (default: a temporary one, removed)")
+    ap.add_argument("--table", action="store_true", help="print the table of --out's results, running nothing")
     args = ap.parse_args()
+    if args.table:
+        print(table(json.load(open(args.out))))
+        return 0
     binary = os.path.abspath(args.scalemesh)
     names = args.cases or sorted(d for d in os.listdir(os.path.join(REPO, "cases"))
                                  if os.path.isfile(os.path.join(REPO, "cases", d, "scalemesh.toml")))
@@ -359,9 +432,7 @@ def main():
     finally:
         if not args.keep:
             shutil.rmtree(scratch, ignore_errors=True)
-    print(HEADER)
-    for r in done:
-        print(row(r))
+    print(table(done))
     return 0
 
 

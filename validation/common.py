@@ -240,7 +240,14 @@ def write_snappy_dict(case, geometry, surfaces, regions, location, layers):
     refinementRegions { ... }, `location` the locationInMesh point, and
     `layers` wall layers on the patch named wall (relative sizes, expansion
     ratio 1.2, the last layer 0.5 of the cell next to it), as
-    snappyHexMesh's tutorials set them."""
+    snappyHexMesh's tutorials set them. `location` may also be a list of
+    points, one in each of the mesh's disconnected regions: then
+    locationsInMesh, each region a cellZone region0, region1, ..."""
+    if isinstance(location[0], (tuple, list)):
+        where = "locationsInMesh (%s);" % " ".join("((%.9g %.9g %.9g) region%d)" % (tuple(p) + (i,))
+                                                   for i, p in enumerate(location))
+    else:
+        where = "locationInMesh (%.9g %.9g %.9g);" % tuple(location)
     with open(os.path.join(case, "system", "snappyHexMeshDict"), "w") as f:
         f.write(SNAPPY_HEAD % "snappyHexMeshDict")
         f.write("castellatedMesh true; snap true; addLayers true;\n"
@@ -250,7 +257,7 @@ def write_snappy_dict(case, geometry, surfaces, regions, location, layers):
                 "  nCellsBetweenLevels 3; features ();\n"
                 "  refinementSurfaces {%s}\n"
                 "  resolveFeatureAngle 30;\n  refinementRegions {\n%s  }\n"
-                "  locationInMesh (%.9g %.9g %.9g); allowFreeStandingZoneFaces true;\n}\n"
+                "  %s allowFreeStandingZoneFaces true;\n}\n"
                 "snapControls { nSmoothPatch 3; tolerance 2.0; nSolveIter 100; nRelaxIter 5; nFeatureSnapIter 10;\n"
                 "  implicitFeatureSnap true; explicitFeatureSnap false; multiRegionFeatureSnap false; }\n"
                 "addLayersControls {\n"
@@ -265,7 +272,7 @@ def write_snappy_dict(case, geometry, surfaces, regions, location, layers):
                 "  minVolRatio 0.01; minTriangleTwist -1; nSmoothScale 4; errorReduction 0.75;\n"
                 "  relaxed { maxNonOrtho 75; }\n}\n"
                 "writeFlags ( ); mergeTolerance 1e-6;\n"
-                % ((geometry, surfaces, regions) + tuple(location) + (layers,)))
+                % (geometry, surfaces, regions, where, layers))
 
 
 def run_snappy(case):
@@ -275,13 +282,21 @@ def run_snappy(case):
     and the percentage of the asked thickness."""
     t = time.time()
     run(["blockMesh", "-case", "."], case, "log.blockMesh")
-    text = run(["snappyHexMesh", "-case", ".", "-overwrite"], case, "log.snappyHexMesh")
+    run(["snappyHexMesh", "-case", ".", "-overwrite"], case, "log.snappyHexMesh")
+    layers, thickness = snappy_layers(case)
+    run(["transformPoints", "-case", ".", "-scale", "(1e-3 1e-3 1e-3)"], case, "log.transformPoints")
+    return time.time() - t, layers, thickness
+
+
+def snappy_layers(case):
+    """From the case's log.snappyHexMesh: the patch wall's layers on average
+    and the percentage of the asked thickness."""
+    text = open(os.path.join(case, "log.snappyHexMesh")).read()
     m = re.compile(r"(?m)^wall\s+\d+\s+([0-9.]+)\s+[0-9.eE+-]+\s+([0-9.]+)").search(
         text, text.rfind("overall thickness") + 1)
     if not m:
         raise RuntimeError("snappyHexMesh added no wall layers in " + case)
-    run(["transformPoints", "-case", ".", "-scale", "(1e-3 1e-3 1e-3)"], case, "log.transformPoints")
-    return time.time() - t, float(m.group(1)), float(m.group(2))
+    return float(m.group(1)), float(m.group(2))
 
 
 def snappy_tube(case, stl, z0, z1, half_width, h, location_z, layers, regions=()):

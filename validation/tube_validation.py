@@ -173,13 +173,15 @@ def scalemesh_case(binary, M, case, surface="voxel"):
 
 def case_from_template(case, template):
     """An empty case directory with the template's system/, constant/ and 0/
-    (the same solver settings and boundary conditions), no polyMesh."""
+    (the same solver settings and boundary conditions; those it has), no
+    polyMesh."""
     if os.path.exists(case):
         shutil.rmtree(case)
     os.makedirs(case)
     for d in ("system", "constant", "0"):
-        shutil.copytree(os.path.join(template, d), os.path.join(case, d),
-                        ignore=shutil.ignore_patterns("polyMesh"))
+        if os.path.isdir(os.path.join(template, d)):   # a case without openings has no 0/
+            shutil.copytree(os.path.join(template, d), os.path.join(case, d),
+                            ignore=shutil.ignore_patterns("polyMesh"))
 
 
 def gmsh_case(h, case, template):
