@@ -29,6 +29,9 @@ The same two checkMesh runs follow.
 cylinder` case: scalemesh on the exact cylinder STL (scalemesh_case), and
 its snappyHexMesh peer (snappy_case, the block's end faces the inlet and
 outlet), h chosen by the same estimate from the cylinder's volume and wall.
+Each also as a control, "cylinder-M<M>, snappyHexMesh on scalemesh's
+surface": the same scalemesh case run again writing surface.msh, and
+snappyHexMesh given that surface as on the sample cases.
 
 Results go into validation/prisms/all-checks.json (merged with what it
 holds, by case), one Markdown row per case printed.
@@ -294,8 +297,15 @@ def one_case(name, scratch, binary):
     log("%s: scalemesh %s cells, failed checks %d default, %d all"
         % (name, result["scalemesh"]["default"]["cells"], result["scalemesh"]["default"]["failed"],
            result["scalemesh"]["all"]["failed"]))
-    sn = os.path.join(scratch, name, "snappy")
-    target = result["scalemesh"]["default"]["cells"]
+    result["snappy"] = snappy_on_surface(name, os.path.join(scratch, name, "snappy"), sm,
+                                         result["scalemesh"]["default"]["cells"])
+    return result
+
+
+def snappy_on_surface(name, sn, sm, target):
+    """snappyHexMesh in `sn` on the surface of scalemesh's case `sm`, about
+    `target` cells (one retry when the estimate misses by 2 times and the
+    run was quick): its results dict."""
     scale, tries = 1.0, []
     while True:
         if os.path.exists(sn):
@@ -303,23 +313,21 @@ def one_case(name, scratch, binary):
         try:
             h, seconds, layers_made, thickness = snappy_surface(sn, sm, target, scale)
         except Exception as e:  # noqa: BLE001 -- recorded, the next case runs
-            result["snappy"] = {"error": str(e)[-2000:], "earlier_tries": tries}
             log("%s: snappyHexMesh failed: %s" % (name, str(e)[-500:]))
-            return result
-        result["snappy"] = {"h_mm": round(h, 4), "seconds": round(seconds, 1), "wall_layers_mean": layers_made,
-                            "thickness_percent": thickness, "patches": [p for p, _, _ in patch_names(sn)]}
-        result["snappy"].update(check_both(sn))
-        cells = result["snappy"]["default"]["cells"]
+            return {"error": str(e)[-2000:], "earlier_tries": tries}
+        result = {"h_mm": round(h, 4), "seconds": round(seconds, 1), "wall_layers_mean": layers_made,
+                  "thickness_percent": thickness, "patches": [p for p, _, _ in patch_names(sn)]}
+        result.update(check_both(sn))
+        cells = result["default"]["cells"]
         # One retry when the estimate missed by more than a factor of 2 and
         # the run was quick: h scaled by the cube root of the miss.
         if tries or 0.5 <= cells / target <= 2 or seconds > RETRY_SECONDS:
             break
         tries.append({"h_mm": round(h, 4), "cells": cells, "seconds": round(seconds, 1)})
         scale *= (cells / target) ** (1 / 3)
-    result["snappy"]["earlier_tries"] = tries
+    result["earlier_tries"] = tries
     log("%s: snappyHexMesh h %.3g mm, %s cells, failed checks %d default, %d all, %.0f s"
-        % (name, h, result["snappy"]["default"]["cells"], result["snappy"]["default"]["failed"],
-           result["snappy"]["all"]["failed"], seconds))
+        % (name, h, cells, result["default"]["failed"], result["all"]["failed"], seconds))
     return result
 
 
@@ -355,42 +363,87 @@ def cylinder_case(M, scratch, binary):
     return result
 
 
-def short(check):
-    """A `***` line's check, without its figures."""
-    text = check.lstrip("*").strip()
-    text = re.split(r"\s*=|\s*:|,| found| detected", text)[0]
-    return text.strip() or check
+def cylinder_surface_case(M, scratch, binary):
+    """The control: the cylinder case at M run again writing surface.msh,
+    and snappyHexMesh given that surface (scalemesh's boundary, caps as
+    inlet and outlet) as on the sample cases, in place of the peer's fine
+    STL of the cylinder's side."""
+    name = "cylinder-M%g, snappyHexMesh on scalemesh's surface" % M
+    result = {"case": name}
+    source = os.path.join(scratch, "cylinder-M%g" % M, "scalemesh")
+    sm = os.path.join(scratch, "cylinder-M%g" % M, "scalemesh-surface")
+    os.makedirs(sm)
+    for file in ("scalemesh.toml", "cylinder.stl"):
+        shutil.copy(os.path.join(source, file), sm)
+    toml = os.path.join(sm, "scalemesh.toml")
+    text, k = re.subn(r"(?m)^surface = \[\]", 'surface = ["surface.msh"]', open(toml).read())
+    if k != 1:
+        raise RuntimeError("no `surface = []` in " + toml)
+    open(toml, "w").write(text)
+    t = time.time()
+    run([binary, "run", sm, "-q"], sm, "log.scalemesh-run")
+    report = json.load(open(os.path.join(sm, "report.json")))
+    result["scalemesh"] = {"seconds": round(time.time() - t, 1),
+                           "layers_built": report.get("volume", {}).get("layers_built")}
+    result["scalemesh"].update(check_both(sm))
+    result["snappy"] = snappy_on_surface(name, os.path.join(scratch, "cylinder-M%g" % M, "snappy-surface"), sm,
+                                         result["scalemesh"]["default"]["cells"])
+    return result
+
+
+CHECK_NAMES = {"Cells with small determinant": "determinant", "Concave cells (using face planes)": "concave",
+               "Faces with small interpolation weight": "weight", "Error in face tets": "face tets",
+               "Max skewness": "skewness"}
+
+
+def checks_text(m):
+    """A run's failed checks (all), each with the cells or faces it names."""
+    out = []
+    for line in m["all"]["failed_checks"]:
+        text = line.lstrip("*").strip()
+        name = next((v for k, v in CHECK_NAMES.items() if text.startswith(k)), text)
+        n = re.search(r"number of cells: (\d+)", text)
+        if n:
+            out.append("%s %s" % (name, n.group(1)))
+            continue
+        n = re.search(r"number of faces: (\d+)", text) or re.search(r"(\d+) (?:highly skew )?faces", text)
+        out.append("%s %s face%s" % (name, n.group(1), "" if n.group(1) == "1" else "s") if n else name)
+    return ", ".join(out) or "-"
 
 
 def row(r):
-    cols = [r["case"]]
+    cols = [r["case"].replace(", snappyHexMesh on", ", control: snappyHexMesh on")]
     for mesher in ("scalemesh", "snappy"):
         m = r.get(mesher)
         if not m:
-            cols += ["not run", "", "", ""]
+            cols += ["not run", "", ""]
         elif "error" in m:
-            cols += ["failed: " + m["error"].strip().splitlines()[0][:80], "", "", ""]
+            cols += ["failed: " + m["error"].strip().splitlines()[0][:80], "", ""]
         else:
-            names = sorted({short(c) for c in m["all"]["failed_checks"]})
             if mesher == "scalemesh":
-                note = {"prisms": "prism layers", "delaunay": "Delaunay layers"}.get(m.get("layers_built"), "")
+                note = {"prisms": "prisms", "delaunay": "Delaunay"}.get(m.get("layers_built"), "?")
             else:
-                note = "h %.3g mm, %s wall layers" % (m["h_mm"], m.get("wall_layers_mean", "?"))
-            cols += ["{:,}".format(m["default"]["cells"]) + (" (%s)" % note if note else ""),
-                     str(m["default"]["failed"]), str(m["all"]["failed"]), "; ".join(names) or "-"]
+                note = "%.3g mm, %.2f" % (m["h_mm"], m.get("wall_layers_mean", float("nan")))
+            cols += ["{:,} ({})".format(m["default"]["cells"], note),
+                     "%d / %d" % (m["default"]["failed"], m["all"]["failed"]), checks_text(m)]
     sm, sn = r.get("scalemesh", {}), r.get("snappy", {})
     cols.append("yes" if "all" in sm and "all" in sn and sm["all"]["failed"] <= sn["all"]["failed"] else
                 "no" if "all" in sm and "all" in sn else "-")
     return "| " + " | ".join(cols) + " |"
 
 
-HEADER = ("| case | scalemesh cells | failed, default | failed, all | checks failed (all) | snappyHexMesh cells "
-          "| failed, default | failed, all | checks failed (all) | all: scalemesh <= snappyHexMesh |\n"
-          "|---|---|---|---|---|---|---|---|---|---|")
+HEADER = ("| case | scalemesh: cells (layers) | failed: default / all | its failed checks (all) "
+          "| snappyHexMesh: cells (h, wall layers) | failed: default / all | its failed checks (all) "
+          "| all: scalemesh <= snappyHexMesh |\n|---|---|---|---|---|---|---|---|")
 
 
 def table(results):
-    return HEADER + "\n" + "\n".join(row(r) for r in results)
+    """The Markdown table: the cylinder rows first (M ascending), then the
+    sample cases."""
+    def key(r):
+        m = re.match(r"cylinder-M([0-9.]+)", r["case"])
+        return (0, float(m.group(1)), r["case"]) if m else (1, 0, r["case"])
+    return HEADER + "\n" + "\n".join(row(r) for r in sorted(results, key=key))
 
 
 def main():
@@ -425,6 +478,8 @@ def main():
     try:
         for M in args.cylinder:
             done.append(cylinder_case(M, scratch, binary))
+            save(done[-1])
+            done.append(cylinder_surface_case(M, scratch, binary))
             save(done[-1])
         for name in names:
             done.append(one_case(name, scratch, binary))
