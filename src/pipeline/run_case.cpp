@@ -306,10 +306,6 @@ std::string prism_cells_shortfall(const CaseConfig& config, const PipelineRun& r
     return text;
 }
 
-namespace {
-
-} // namespace
-
 void write_text_file(const std::filesystem::path& path, const std::string& text)
 {
     AtomicOutput out(path);

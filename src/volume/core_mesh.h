@@ -29,7 +29,9 @@ namespace scalemesh {
 // `inside` are points to mesh with (embedded in the volume, after the
 // boundary's in mesh.points, in their order); each must lie strictly inside
 // the region. Gmsh 4.8 adds no point of its own to a volume bounded by a
-// discrete surface, so these are the core's points.
+// discrete surface where no size field asks for one, and its refinement
+// loop is held to one try, so these are the core's points (a point Gmsh
+// did add would follow them).
 TetMesh mesh_core(const SurfaceMesh& boundary, const std::vector<Vec3>& inside = {});
 
 } // namespace scalemesh
