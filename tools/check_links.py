@@ -24,9 +24,10 @@ STAGE_DIRS = ("src", "importers", "exporters", "gmsh_io")
 SKIP_DIRS = {"build", ".git", "cases", "docs"}
 VISIBILITY = {"PUBLIC", "PRIVATE", "INTERFACE"}
 # include/scalemesh/: the library's public headers, on the include path of
-# the targets that compile the library (src/api/) and of those linking it.
+# the targets that compile the library (src/api/), of those linking it, and
+# of those linking scalemesh_headers (the headers alone, for the pipeline).
 PUBLIC_HEADERS = "scalemesh (include/)"
-PUBLIC_HEADER_TARGETS = {"scalemesh_api", "scalemesh_library", "scalemesh_static"}
+PUBLIC_HEADER_TARGETS = {"scalemesh_api", "scalemesh_library", "scalemesh_static", "scalemesh_headers"}
 
 
 def cmake_commands(path):

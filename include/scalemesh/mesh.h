@@ -29,10 +29,9 @@
 #include <string>
 #include <vector>
 
-// The functions of the library (and MeshOptions' constructor): the only
-// symbols libscalemesh.so exports (its own code is compiled with hidden
-// visibility, the stage libraries in it hidden at its link). Everything else
-// here is defined in the headers.
+// The functions of the library: the only symbols libscalemesh.so exports
+// (its own code is compiled with hidden visibility, the stage libraries in it
+// hidden at its link). Everything else here is defined in the headers.
 #ifndef SCALEMESH_API
 #define SCALEMESH_API __attribute__((visibility("default")))
 #endif
@@ -81,42 +80,46 @@ struct MeshOpening {
                                                // added beyond the cap; 0: none, at most 100
 };
 
-// The parameters of a run. A default-constructed MeshOptions holds the
-// defaults of the case file scalemesh.toml (the same values, read from the
-// case reader, not restated here); the names are the case file's keys, and
-// every value is checked as the case file's is (InputError naming the key).
+// The parameters of a run, with their defaults: those of the case file
+// scalemesh.toml too, whose reader takes them from here (the one place they
+// are set). The names are the case file's keys (the [smoothing] keys as
+// sweeps, omega, max_displacement, [remeshing] cycles) and Python's keywords;
+// every value is checked as the case file's is (InputError naming the
+// section and key). Ranges are written [a, b] (closed) and (a, b] (a left
+// out); a length is in mm or voxel widths (MeshLength) and positive.
 struct MeshOptions {
-    SCALEMESH_API MeshOptions();
-
     // [sizing], the paper's Algorithm 1.
-    double K;                          // anisotropy of the elements at the wall
-    double M;                          // element layers across a cross-section
-    double G;                          // gradient limit of d, |d_i - d_j| <= G |x_i - x_j|
-    MeshLength L_min;                  // smallest feature size resolved
-    std::optional<MeshLength> L_max;   // largest; empty: the largest extent of the surface
-    bool curvature;                    // the curvature term, eq. (12)
+    double K = 4.2;                          // anisotropy of the elements at the wall, surface edge length over
+                                             // layer thickness (dimensionless), (0, 1000]
+    double M = 7;                            // element layers across a cross-section, [1, 1000]
+    double G = 0.85;                         // gradient limit of d, |d_i - d_j| <= G |x_i - x_j| (dimensionless),
+                                             // (0, 1000]
+    MeshLength L_min = {0.5, true};          // smallest feature size resolved: half a voxel (paper section 3)
+    std::optional<MeshLength> L_max = {};    // largest, >= L_min; empty: the largest extent of the surface
+    bool curvature = false;                  // the curvature term, eq. (12)
 
     // [smoothing], volume-conserving smoothing before sizing.
-    int smoothing_sweeps;              // Gauss-Seidel sweeps, 0 to 10000 (0: none)
-    double smoothing_omega;            // under-relaxation, (0, 1]
-    MeshLength smoothing_reach;        // how far a node may move from where it started
+    int smoothing_sweeps = 10;               // Gauss-Seidel sweeps, [0, 10000] (0: none)
+    double smoothing_omega = 1.0;            // under-relaxation (dimensionless), (0, 1]
+    MeshLength smoothing_reach = {0.5, true}; // how far a node may move from where it started: half a voxel
 
     // [remeshing]
-    int remesh_cycles;                 // 1 to 100 (a volume mesh needs remeshing)
+    int remesh_cycles = 3;                   // [1, 100] (a volume mesh needs remeshing; a case file may give 0)
 
     // [volume], Algorithms 4 and 5.
-    double growth;                     // layer thickness ratio, [1, 3]; 1 = uniform layers
-    std::string first_layer;           // "edge" (surface edge length / K) or "paper" (d / M)
-    std::string layers;                // "prisms" (prism layers built explicitly, the core meshed above by
-                                       // Gmsh) or "delaunay" (the paper's layer points in one Delaunay
-                                       // triangulation, no Gmsh)
-    double layer_tolerance;            // fraction of its layer spacing a layer point may move, (0, 0.5]
-                                       // (with "prisms": a column's top, along its column)
+    double growth = 1.0;                     // layer thickness ratio, [1, 3]; 1 = uniform layers
+    std::string first_layer = "edge";        // "edge" (surface edge length / K) or "paper" (d / M)
+    std::string layers = "prisms";           // "prisms" (prism layers built explicitly, the core meshed above by
+                                             // Gmsh) or "delaunay" (the paper's layer points in one Delaunay
+                                             // triangulation, no Gmsh)
+    double layer_tolerance = 0.15;           // fraction of its layer spacing a layer point may move, (0, 0.5]
+                                             // (with "prisms": a column's top, along its column)
 
     // [run]
-    int threads;                       // worker threads of every parallel stage; 0: every core
-    std::int64_t max_memory = 0;       // bytes the run may use (estimated before the heavy stages);
-                                       // 0: the machine's physical memory
+    int threads = 0;                         // worker threads of every parallel stage, [0, 1024]; 0: every core
+    std::int64_t max_memory = 0;             // bytes the run may use (estimated before the heavy stages), >= 0;
+                                             // 0: the machine's physical memory (not a case-file key: the
+                                             // command line's run --max-memory)
 
     // [[openings]], in order: patches 1, 2, ... of the mesh (patch 0 is
     // "wall"). Empty: a closed surface has none; an open one gets one per

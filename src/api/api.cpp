@@ -54,8 +54,6 @@ namespace {
 
 using detail::toml_number;
 
-MeshLength public_length(const Length& l) { return {l.value, l.voxels}; }
-
 std::string toml_length(const MeshLength& l)
 {
     if (!std::isfinite(l.value)) return toml_number(l.value); // refused as "not a length"
@@ -64,9 +62,10 @@ std::string toml_length(const MeshLength& l)
     return toml_string(std::string(text.data(), end) + (l.voxels ? " voxels" : " mm"));
 }
 
-// The case a run through the library amounts to: the options written as the
-// case file's keys and read by the case reader, so that every value is
-// checked, and named, as in a scalemesh.toml.
+// The case a run through the library amounts to: the input and openings
+// written as the case file's keys and read by the case reader, the meshing
+// options set from `o` directly (config_from_options), every value checked,
+// and named, as in a scalemesh.toml.
 CaseConfig case_for(const std::filesystem::path& file, const MeshOptions& o, const ImageOptions& image)
 {
     std::string text = "[input]\nfile = " + toml_string(file.string()) + "\n";
@@ -81,16 +80,6 @@ CaseConfig case_for(const std::filesystem::path& file, const MeshOptions& o, con
     if (image.iso) text += "iso = " + toml_number(*image.iso) + "\n";
     text += "connectivity = " + std::to_string(image.connectivity) + "\n";
     if (image.units != "mm") text += "units = " + toml_string(image.units) + "\n";
-    text += "[smoothing]\nsweeps = " + std::to_string(o.smoothing_sweeps) + "\nomega = " + toml_number(o.smoothing_omega) +
-            "\nmax_displacement = " + toml_length(o.smoothing_reach) + "\n";
-    text += "[sizing]\nK = " + toml_number(o.K) + "\nM = " + toml_number(o.M) + "\nG = " + toml_number(o.G) +
-            "\nL_min = " + toml_length(o.L_min) + "\n";
-    if (o.L_max) text += "L_max = " + toml_length(*o.L_max) + "\n";
-    text += std::string("curvature = ") + (o.curvature ? "true" : "false") + "\n";
-    text += "[remeshing]\ncycles = " + std::to_string(o.remesh_cycles) + "\n";
-    text += "[volume]\ngrowth = " + toml_number(o.growth) + "\nfirst_layer = " + toml_string(o.first_layer) +
-            "\nlayers = " + toml_string(o.layers) + "\nlayer_tolerance = " + toml_number(o.layer_tolerance) + "\n";
-    text += "[run]\nthreads = " + std::to_string(o.threads) + "\n";
     for (const MeshOpening& opening : o.openings) {
         const auto xyz = [](const std::array<double, 3>& v) {
             return "[" + toml_number(v[0]) + ", " + toml_number(v[1]) + ", " + toml_number(v[2]) + "]";
@@ -106,10 +95,9 @@ CaseConfig case_for(const std::filesystem::path& file, const MeshOptions& o, con
         if (opening.label) text += "label = " + std::to_string(*opening.label) + "\n";
         if (opening.extension != 0) text += "extension = " + toml_number(opening.extension) + "\n";
     }
-    CaseConfig config = parse_case(text, ".", "mesh options");
+    const CaseConfig config = config_from_options(o, parse_case(text, ".", "mesh options"));
     if (config.remesh_cycles < 1)
         throw InputError("mesh options: remesh_cycles = 0 builds no volume mesh", "give 1 to 100 cycles (default 3)");
-    if (o.max_memory < 0) throw InputError("mesh options: max_memory is negative", "give bytes, or 0 for no bound");
     return config;
 }
 
@@ -291,26 +279,6 @@ VoxelArray voxel_array(const ImageView& view)
 }
 
 } // namespace
-
-MeshOptions::MeshOptions()
-{
-    const CaseConfig defaults;
-    K = defaults.K;
-    M = defaults.M;
-    G = defaults.G;
-    L_min = public_length(defaults.L_min);
-    if (defaults.L_max) L_max = public_length(*defaults.L_max);
-    curvature = defaults.curvature;
-    smoothing_sweeps = defaults.smoothing.sweeps;
-    smoothing_omega = defaults.smoothing.omega;
-    smoothing_reach = public_length(defaults.smoothing_reach);
-    remesh_cycles = defaults.remesh_cycles;
-    growth = defaults.growth;
-    first_layer = defaults.first_layer == FirstLayer::edge ? "edge" : "paper";
-    layers = defaults.layers == LayerMode::prisms ? "prisms" : "delaunay";
-    layer_tolerance = defaults.layer_tolerance;
-    threads = defaults.threads;
-}
 
 MeshResult mesh_surface(const SurfaceInput& surface, const MeshOptions& options)
 {

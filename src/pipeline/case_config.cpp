@@ -129,7 +129,136 @@ private:
     std::vector<std::string> keys_;
 };
 
+// The case-file keys of `section`: its meshing options' (mesh_option_table),
+// then its `own`.
+std::vector<std::string> option_keys(const std::string& section, std::vector<std::string> own = {})
+{
+    std::vector<std::string> keys;
+    for (const OptionInfo& option : mesh_option_table())
+        if (option.section == section) keys.push_back(option.key);
+    keys.insert(keys.end(), own.begin(), own.end());
+    return keys;
+}
+
+[[noreturn]] void out_of_range(const OptionInfo& option, const std::string& where, const std::string& value)
+{
+    throw InputError(where + " = " + value + " is out of range",
+                     option.hint.empty() ? "choose a value in " + range_text(option) : option.hint);
+}
+
+void check_integer(const OptionInfo& option, int64_t value, const std::string& where)
+{
+    if (value < option.min || value > option.max) out_of_range(option, where, std::to_string(value));
+}
+
+// The checks of an option's value, one per member type; `where` names the
+// option ("<source>: [section] key").
+void check_value(const OptionInfo& option, double value, const std::string& where)
+{
+    if (!std::isfinite(value) || value > option.max || (option.min_open ? value <= option.min : value < option.min))
+        out_of_range(option, where, std::to_string(value));
+}
+
+void check_value(const OptionInfo& option, int value, const std::string& where)
+{
+    check_integer(option, value, where);
+}
+
+void check_value(const OptionInfo& option, int64_t value, const std::string& where)
+{
+    check_integer(option, value, where);
+}
+
+void check_value(const OptionInfo&, bool, const std::string&) {}
+
+void check_value(const OptionInfo& option, const std::string& value, const std::string& where)
+{
+    if (std::find(option.choices.begin(), option.choices.end(), value) != option.choices.end()) return;
+    std::string hint = option.hint;
+    if (hint.empty()) {
+        hint = "choose";
+        for (size_t i = 0; i < option.choices.size(); ++i)
+            hint += std::string(i == 0 ? " " : i + 1 == option.choices.size() ? " or " : ", ") + "\"" +
+                    option.choices[i] + "\"";
+    }
+    throw InputError(where + " = \"" + value + "\" is not " + option.what, hint);
+}
+
+void check_value(const OptionInfo&, const MeshLength& value, const std::string& where)
+{
+    if (!(value.value > 0) || !std::isfinite(value.value))
+        throw InputError(where + " must be a positive length", "give a positive number of mm or voxels");
+}
+
+void check_value(const OptionInfo& option, const std::optional<MeshLength>& value, const std::string& where)
+{
+    if (value) check_value(option, *value, where);
+}
+
+// The option's key of `section`, if given, into its member of `options`.
+void read_option(const Section& section, const OptionInfo& option, MeshOptions& options)
+{
+    if (!section.has(option.key)) return;
+    std::visit(
+        [&](auto member) {
+            auto& value = options.*member;
+            using T = std::decay_t<decltype(value)>;
+            if constexpr (std::is_same_v<T, double> || std::is_same_v<T, bool> || std::is_same_v<T, std::string>) {
+                value = *section.get<T>(option.key);
+            } else if constexpr (std::is_integral_v<T>) {
+                const int64_t given = *section.get<int64_t>(option.key);
+                check_integer(option, given, section.where(option.key));
+                value = static_cast<T>(given);
+            } else {
+                const Length length = section.length(option.key);
+                value = MeshLength{length.value, length.voxels};
+            }
+        },
+        option.member);
+}
+
+Length case_length(const MeshLength& length) { return {length.value, length.voxels}; }
+
+// The meshing options into `config`, unchecked.
+void set_options(CaseConfig& config, const MeshOptions& options)
+{
+    config.smoothing.sweeps = options.smoothing_sweeps;
+    config.smoothing.omega = options.smoothing_omega;
+    config.smoothing_reach = case_length(options.smoothing_reach);
+    config.K = options.K;
+    config.M = options.M;
+    config.G = options.G;
+    config.L_min = case_length(options.L_min);
+    config.L_max.reset();
+    if (options.L_max) config.L_max = case_length(*options.L_max);
+    config.curvature = options.curvature;
+    config.remesh_cycles = options.remesh_cycles;
+    config.growth = options.growth;
+    config.first_layer = options.first_layer == "paper" ? FirstLayer::paper : FirstLayer::edge;
+    config.layers = options.layers == "delaunay" ? LayerMode::delaunay : LayerMode::prisms;
+    config.layer_tolerance = options.layer_tolerance;
+    config.threads = options.threads;
+}
+
 } // namespace
+
+CaseConfig::CaseConfig() { set_options(*this, MeshOptions{}); }
+
+CaseConfig config_from_options(const MeshOptions& options, CaseConfig config)
+{
+    for (const OptionInfo& option : mesh_option_table()) {
+        const std::string where = config.source + ": " +
+                                  (option.section.empty() ? "" : "[" + option.section + "] ") + option.key;
+        std::visit([&](auto member) { check_value(option, options.*member, where); }, option.member);
+    }
+    const std::optional<MeshLength>& L_max = options.L_max;
+    if (L_max && L_max->voxels == options.L_min.voxels && L_max->value < options.L_min.value)
+        throw InputError(config.source + ": [sizing] L_max (" + case_length(*L_max).text() + ") is below L_min (" +
+                             case_length(options.L_min).text() + ")",
+                         "L_min <= L_max is required: the zone of scale invariance is [L_min, L_max]");
+    set_options(config, options);
+    return config;
+}
 
 std::string toml_string(const std::string& s)
 {
@@ -231,49 +360,23 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
         }
     }
 
-    const Section smoothing(root["smoothing"].as_table(), "smoothing", source, {"sweeps", "omega", "max_displacement"});
-    const int64_t sweeps = smoothing.get<int64_t>("sweeps").value_or(10);
-    if (sweeps < 0 || sweeps > 10000)
-        throw InputError(smoothing.where("sweeps") + " = " + std::to_string(sweeps) + " is out of range",
-                         "choose 0 to 10000 sweeps");
-    config.smoothing.sweeps = static_cast<int>(sweeps);
-    config.smoothing.omega = smoothing.number("omega", 1.0, 0, 1, true);
-    if (smoothing.has("max_displacement")) config.smoothing_reach = smoothing.length("max_displacement");
-
-    const Section sizing(root["sizing"].as_table(), "sizing", source, {"K", "M", "G", "L_min", "L_max", "curvature"});
-    config.K = sizing.number("K", config.K, 0, 1e3, true);
-    config.M = sizing.number("M", config.M, 1, 1e3);
-    config.G = sizing.number("G", config.G, 0, 1e3, true);
-    if (sizing.has("L_min")) config.L_min = sizing.length("L_min");
-    if (sizing.has("L_max")) config.L_max = sizing.length("L_max");
-    if (config.L_max && config.L_max->voxels == config.L_min.voxels && config.L_max->value < config.L_min.value)
-        throw InputError(sizing.where("L_max") + " (" + config.L_max->text() + ") is below L_min (" +
-                             config.L_min.text() + ")",
-                         "L_min <= L_max is required: the zone of scale invariance is [L_min, L_max]");
-    config.curvature = sizing.get<bool>("curvature").value_or(false);
-
-    const Section remeshing(root["remeshing"].as_table(), "remeshing", source, {"cycles"});
-    const int64_t cycles = remeshing.get<int64_t>("cycles").value_or(3);
-    if (cycles < 0 || cycles > 100)
-        throw InputError(remeshing.where("cycles") + " = " + std::to_string(cycles) + " is out of range",
-                         "choose 0 (no remeshing, no volume mesh) to 100; the paper uses 3");
-    config.remesh_cycles = static_cast<int>(cycles);
-
+    // The meshing options, read as their kind (integers range-checked before
+    // they are narrowed to their member), then checked and set by
+    // config_from_options in the words it uses for the library's options.
+    const Section smoothing(root["smoothing"].as_table(), "smoothing", source, option_keys("smoothing"));
+    const Section sizing(root["sizing"].as_table(), "sizing", source, option_keys("sizing"));
+    const Section remeshing(root["remeshing"].as_table(), "remeshing", source, option_keys("remeshing"));
     const Section volume(root["volume"].as_table(), "volume", source,
-                         {"enabled", "layers", "growth", "first_layer", "layer_tolerance", "min_layer_coverage",
-                          "min_aspect_ratio", "min_dihedral_deg"});
+                         option_keys("volume", {"enabled", "min_layer_coverage", "min_aspect_ratio", "min_dihedral_deg"}));
+    const Section run(root["run"].as_table(), "run", source, option_keys("run"));
+    const std::map<std::string, const Section*> option_sections = {
+        {"smoothing", &smoothing}, {"sizing", &sizing}, {"remeshing", &remeshing}, {"volume", &volume}, {"run", &run}};
+    MeshOptions options;
+    for (const OptionInfo& option : mesh_option_table())
+        if (!option.section.empty()) read_option(*option_sections.at(option.section), option, options);
+    config = config_from_options(options, std::move(config));
+
     config.volume = volume.get<bool>("enabled").value_or(true);
-    config.growth = volume.number("growth", 1.0, 1.0, 3.0);
-    if (const auto first = volume.choice("first_layer", {"edge", "paper"}, "a first-layer rule",
-                                         "write first_layer = \"edge\" (thickness = surface edge length / K) or "
-                                         "\"paper\" (the paper's d/M)"))
-        config.first_layer = *first == "edge" ? FirstLayer::edge : FirstLayer::paper;
-    if (const auto layers = volume.choice("layers", {"delaunay", "prisms"}, "a layer construction",
-                                          "write layers = \"delaunay\" (the method paper's layer points in one "
-                                          "Delaunay triangulation) or \"prisms\" (prism layers built explicitly, the "
-                                          "core meshed above them)"))
-        config.layers = *layers == "delaunay" ? LayerMode::delaunay : LayerMode::prisms;
-    config.layer_tolerance = volume.number("layer_tolerance", 0.15, 0.0, 0.5, true);
     config.min_layer_coverage = volume.number("min_layer_coverage", 0.99, 0.0, 1.0);
     config.min_aspect_ratio = volume.number("min_aspect_ratio", 0.1, 0.0, 1.0);
     config.min_dihedral_deg = volume.number("min_dihedral_deg", 10.0, 0.0, 70.0);
@@ -446,11 +549,6 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
     // when the cells are known.
     config.decompose = static_cast<int32_t>(std::max<int64_t>(decompose, std::numeric_limits<int32_t>::min()));
 
-    const Section run(root["run"].as_table(), "run", source, {"threads"});
-    const int64_t threads = run.get<int64_t>("threads").value_or(0);
-    if (threads < 0 || threads > 1024)
-        throw InputError(run.where("threads") + " is out of range", "give 0 (all cores) or a thread count");
-    config.threads = static_cast<int>(threads);
     return config;
 }
 

@@ -5,6 +5,7 @@
 
 #include "isosurface/marching_cubes.h"
 #include "openings/openings.h"
+#include "pipeline/options_table.h"
 #include "smoothing/volume_conserving_smoothing.h"
 #include "volume/volume_mesh.h"
 
@@ -26,6 +27,10 @@ struct Length {
 };
 
 struct CaseConfig {
+    // The meshing options (mesh_option_table) at MeshOptions{}'s defaults,
+    // the rest at the defaults below.
+    CaseConfig();
+
     std::filesystem::path directory; // the case directory; relative paths resolve against it
     std::string source;              // the case file as messages name it (parse_case's `source`)
 
@@ -46,28 +51,36 @@ struct CaseConfig {
     std::string units = "mm";       // surface files only: the unit of their coordinates, "mm", "cm", "m" or "um"
     double units_to_mm = 1.0;       // the factor `units` gives (importers/surface_importer.h, unit_to_mm)
 
+    // The meshing options: MeshOptions' members as the stages take them,
+    // set by config_from_options (their defaults, units and ranges are
+    // MeshOptions', include/scalemesh/mesh.h).
     // [smoothing], Algorithm 6's first step; max_displacement is set from
     // smoothing_reach once the voxel width is known.
-    SmoothingParams smoothing{10, 1.0, 0.0};
-    Length smoothing_reach{0.5, true}; // how far a node may move from where marching cubes put it
+    SmoothingParams smoothing;
+    Length smoothing_reach;         // how far a node may move from where marching cubes put it
 
     // [sizing], Algorithm 1.
-    double K = 4.2;
-    double M = 7;
-    double G = 0.85;
-    Length L_min{0.5, true};        // paper section 3: half a voxel
-    std::optional<Length> L_max;    // default: the largest extent of the surface
-    bool curvature = false;         // eq. (12)
+    double K;
+    double M;
+    double G;
+    Length L_min;
+    std::optional<Length> L_max;    // empty: the largest extent of the surface
+    bool curvature;                 // eq. (12)
 
     // [remeshing], Algorithm 6's surface loop.
-    int remesh_cycles = 3;          // 0 skips remeshing (and the volume mesh)
+    int remesh_cycles;              // 0 skips remeshing (and the volume mesh)
 
     // [volume], Algorithms 4 and 5, section 2.4.
-    bool volume = true;             // build the layered volume mesh
-    double growth = 1.0;            // layer thickness ratio, >= 1; 1 = uniform layers as in the paper
-    LayerMode layers = LayerMode::prisms; // "prisms": prism layers built explicitly; "delaunay": the paper's layers
-    FirstLayer first_layer = FirstLayer::edge; // "edge": mean surface edge length / K; "paper": lambda_1 d
-    double layer_tolerance = 0.15;  // fraction of its layer spacing a layermaking point may move and still count
+    double growth;                  // layer thickness ratio, >= 1; 1 = uniform layers as in the paper
+    LayerMode layers;               // "prisms": prism layers built explicitly; "delaunay": the paper's layers
+    FirstLayer first_layer;         // "edge": mean surface edge length / K; "paper": lambda_1 d
+    double layer_tolerance;         // fraction of its layer spacing a layermaking point may move and still count
+
+    // [run]
+    int threads;                    // 0: all cores
+
+    // The case file's own keys, not options of the library.
+    bool volume = true;             // [volume] enabled: build the layered volume mesh
     // The run's own floors: missing one is a warning (stderr, report.json),
     // and an error exit with `scalemesh run --strict`.
     double min_layer_coverage = 0.99; // fraction of wall nodes with D >= L_min that keep all floor(M/2) layers
@@ -99,8 +112,6 @@ struct CaseConfig {
     bool layer_prisms = true; // polyMesh: the three tets filling a layer prism as one cell (layer_prisms.h)
     double msh_version = 4.1;
     bool msh_binary = false;
-
-    int threads = 0; // 0: all cores
 };
 
 // Reads `dir/scalemesh.toml`. Throws InputError naming the file and key for a
@@ -118,6 +129,14 @@ void check_decompose(const CaseConfig& config);
 
 // A TOML basic string for case-file text: quoted, with '"' and '\\' escaped.
 std::string toml_string(const std::string& s);
+
+// `config` with the meshing options of `options` (mesh_option_table), each
+// checked as parse_case checks its case-file key: InputError naming
+// config.source, the section and the key, in parse_case's words ("is out of
+// range", "is not a layer construction", ... with what to give instead).
+// The rest of `config` (input, openings, flow, outputs) is kept. max_memory
+// is checked; the run takes it from MeshOptions (RunOptions::max_memory).
+CaseConfig config_from_options(const MeshOptions& options, CaseConfig config);
 
 // Parses a case file's text; `dir` is where relative paths resolve.
 CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir, const std::string& source);
