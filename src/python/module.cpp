@@ -11,6 +11,8 @@
 
 #include "scalemesh/scalemesh.h"
 
+#include "pipeline/options_table.h"
+
 #include <pybind11/functional.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -29,6 +31,7 @@
 #include <set>
 #include <string>
 #include <unordered_map>
+#include <variant>
 
 namespace py = pybind11;
 using namespace pybind11::literals;
@@ -64,10 +67,64 @@ MeshLength length_option(const char* key, const py::handle& value)
     return MeshLength::mm(value.cast<double>());
 }
 
-const char* const option_names[] = {"K", "M", "G", "L_min", "L_max", "curvature", "smoothing_sweeps",
-                                    "smoothing_omega", "smoothing_reach", "remesh_cycles", "growth", "first_layer",
-                                    "layers", "layer_tolerance", "threads", "max_memory", "openings", "progress",
-                                    "gmsh_session"};
+// The keywords besides the meshing options' (scalemesh::mesh_option_table).
+const char* const other_keywords[] = {"openings", "progress", "gmsh_session"};
+
+// A meshing option's value, from Python, into its MeshOptions member.
+void set_option(MeshOptions& o, const scalemesh::OptionInfo& option, const py::handle& value)
+{
+    std::visit(
+        [&](auto member) {
+            auto& field = o.*member;
+            using T = std::decay_t<decltype(field)>;
+            if constexpr (std::is_same_v<T, MeshLength>) {
+                field = length_option(option.keyword.c_str(), value);
+            } else if constexpr (std::is_same_v<T, std::optional<MeshLength>>) {
+                if (value.is_none()) field.reset();
+                else field = length_option(option.keyword.c_str(), value);
+            } else {
+                field = value.cast<T>();
+            }
+        },
+        option.member);
+}
+
+// A meshing option's value as Python gives it: a length as a number of mm or
+// a string "<value> voxels", an unset length as None.
+py::object option_value(const MeshOptions& o, const scalemesh::OptionInfo& option)
+{
+    const auto length = [](const MeshLength& l) {
+        return l.voxels ? py::object(py::str(py::repr(py::float_(l.value)).cast<std::string>() + " voxels"))
+                        : py::object(py::float_(l.value));
+    };
+    return std::visit(
+        [&](auto member) -> py::object {
+            const auto& field = o.*member;
+            using T = std::decay_t<decltype(field)>;
+            if constexpr (std::is_same_v<T, MeshLength>) return length(field);
+            else if constexpr (std::is_same_v<T, std::optional<MeshLength>>)
+                return field ? length(*field) : py::object(py::none());
+            else return py::cast(field);
+        },
+        option.member);
+}
+
+// The options' part of the module's docstring: one line per meshing option
+// (its kind, range or choices, unit, default and doc), from the table.
+std::string options_doc()
+{
+    const MeshOptions defaults;
+    std::string out;
+    for (const scalemesh::OptionInfo& option : scalemesh::mesh_option_table()) {
+        out += "  " + option.keyword + " (" + scalemesh::option_kind_name(option.kind);
+        if (option.kind == scalemesh::OptionKind::number || option.kind == scalemesh::OptionKind::integer)
+            out += " in " + scalemesh::range_text(option);
+        for (size_t i = 0; i < option.choices.size(); ++i) out += (i == 0 ? ": \"" : " or \"") + option.choices[i] + "\"";
+        if (!option.unit.empty()) out += ", " + option.unit;
+        out += ", default " + py::repr(option_value(defaults, option)).cast<std::string>() + "): " + option.doc + "\n";
+    }
+    return out;
+}
 
 const char* const opening_keys[] = {"name",   "type",  "point", "normal", "radius",
                                     "border", "inset", "near",  "label",  "extension"};
@@ -142,24 +199,7 @@ MeshOptions mesh_options(const py::kwargs& kwargs)
     for (const auto& [key_handle, value] : kwargs) {
         const std::string key = key_handle.cast<std::string>();
         try {
-            if (key == "K") o.K = value.cast<double>();
-            else if (key == "M") o.M = value.cast<double>();
-            else if (key == "G") o.G = value.cast<double>();
-            else if (key == "L_min") o.L_min = length_option("L_min", value);
-            else if (key == "L_max") {
-                if (value.is_none()) o.L_max.reset();
-                else o.L_max = length_option("L_max", value);
-            } else if (key == "curvature") o.curvature = value.cast<bool>();
-            else if (key == "smoothing_sweeps") o.smoothing_sweeps = value.cast<int>();
-            else if (key == "smoothing_omega") o.smoothing_omega = value.cast<double>();
-            else if (key == "smoothing_reach") o.smoothing_reach = length_option("smoothing_reach", value);
-            else if (key == "remesh_cycles") o.remesh_cycles = value.cast<int>();
-            else if (key == "growth") o.growth = value.cast<double>();
-            else if (key == "first_layer") o.first_layer = value.cast<std::string>();
-            else if (key == "layers") o.layers = value.cast<std::string>();
-            else if (key == "layer_tolerance") o.layer_tolerance = value.cast<double>();
-            else if (key == "threads") o.threads = value.cast<int>();
-            else if (key == "max_memory") o.max_memory = value.cast<std::int64_t>();
+            if (const scalemesh::OptionInfo* option = scalemesh::find_option(key)) set_option(o, *option, value);
             else if (key == "gmsh_session") o.host_gmsh_session = value.cast<bool>();
             else if (key == "openings") {
                 if (!value.is_none()) {
@@ -181,7 +221,9 @@ MeshOptions mesh_options(const py::kwargs& kwargs)
                 }
             } else {
                 std::string names;
-                for (const char* name : option_names) names += std::string(names.empty() ? "" : ", ") + name;
+                for (const scalemesh::OptionInfo& option : scalemesh::mesh_option_table())
+                    names += (names.empty() ? "" : ", ") + option.keyword;
+                for (const char* name : other_keywords) names += std::string(", ") + name;
                 throw py::type_error("unexpected keyword argument '" + key + "'; the options are: " + names);
             }
         } catch (const py::cast_error&) {
@@ -620,11 +662,10 @@ mesh_gmsh_model(physical_group=None, *, volume_name="fluid", views=True, **optio
 Each returns a MeshResult: a read-only mapping of NumPy arrays (result["points"],
 ...), with write_openfoam(case_dir), write_msh(path), report and to_meshio().
 
-Options (keyword arguments, defaults those of the case file scalemesh.toml,
-see defaults()): K, M, G, L_min, L_max, curvature, smoothing_sweeps,
-smoothing_omega, smoothing_reach, remesh_cycles, growth, first_layer,
-layers, layer_tolerance, threads, max_memory, openings, progress. Lengths are
-numbers in mm or strings "2 mm" / "0.5 voxels". progress(stage, seconds,
+Options (keyword arguments; their defaults, those of the case file
+scalemesh.toml too, are defaults()):
+)" + options_doc() + R"(  openings, progress, gmsh_session: see below.
+Lengths are numbers in mm or strings "2 mm" / "0.5 voxels". progress(stage, seconds,
 summary) is called when a stage starts (seconds < 0) and ends. openings is a
 list of dicts with the keys of the case file's [[openings]] tables (name,
 type, point, normal, radius, border, inset, near, label, extension), e.g.
@@ -813,26 +854,8 @@ later gmsh.model.mesh.generate(3) does not mesh them on top of the result).)");
     m.def("defaults", [] {
         const MeshOptions o;
         py::dict d;
-        d["K"] = o.K;
-        d["M"] = o.M;
-        d["G"] = o.G;
-        const auto length = [](const MeshLength& l) {
-            return l.voxels ? py::object(py::str(py::repr(py::float_(l.value)).cast<std::string>() + " voxels"))
-                            : py::object(py::float_(l.value));
-        };
-        d["L_min"] = length(o.L_min);
-        d["L_max"] = o.L_max ? length(*o.L_max) : py::object(py::none());
-        d["curvature"] = o.curvature;
-        d["smoothing_sweeps"] = o.smoothing_sweeps;
-        d["smoothing_omega"] = o.smoothing_omega;
-        d["smoothing_reach"] = length(o.smoothing_reach);
-        d["remesh_cycles"] = o.remesh_cycles;
-        d["growth"] = o.growth;
-        d["first_layer"] = o.first_layer;
-        d["layers"] = o.layers;
-        d["layer_tolerance"] = o.layer_tolerance;
-        d["threads"] = o.threads;
-        d["max_memory"] = o.max_memory;
+        for (const scalemesh::OptionInfo& option : scalemesh::mesh_option_table())
+            d[py::str(option.keyword)] = option_value(o, option);
         return d;
     }, "The default options: those of the case file scalemesh.toml.");
 }

@@ -290,6 +290,17 @@ class TestMeshSurface(GmshSession):
         self.assertTrue(np.all(centroid_z[result["boundary_patch"] == 1] < 0))
         self.assertTrue(np.all(centroid_z[result["boundary_patch"] == 2] > 0))
 
+    def test_the_keywords_and_defaults_are_the_options_table(self):
+        # Issue 44: the keywords, defaults() and the docstring come from the
+        # one table of the meshing options that `scalemesh options --json` prints.
+        listed = json.loads(subprocess.run([os.environ["SCALEMESH_BINARY"], "options", "--json"],
+                                           stdout=subprocess.PIPE, check=True, universal_newlines=True).stdout)
+        defaults = scalemesh.defaults()
+        self.assertEqual(set(defaults), {o["keyword"] for o in listed})
+        for option in listed:
+            self.assertEqual(defaults[option["keyword"]], option["default"], option["keyword"])
+            self.assertIn("  %s (" % option["keyword"], scalemesh.__doc__)
+
     def test_options_are_the_case_file_defaults_and_are_checked(self):
         defaults = scalemesh.defaults()
         self.assertEqual((defaults["K"], defaults["M"], defaults["G"]), (4.2, 7.0, 0.85))
