@@ -4,7 +4,9 @@
 Open this file in Gmsh (`gmsh scalemesh_gui.py`, or File > Open): Gmsh runs it
 as a ONELAB client and shows its parameters in the left panel (the input
 surface or image, M, K, L_min, L_max, G, growth, and for a .msh input one
-choice per physical surface: automatic, inlet or outlet). *Run* writes a case
+choice per physical surface: automatic, inlet or outlet). The options'
+defaults, ranges and help are scalemesh's own, read from
+`scalemesh options --json`. *Run* writes a case
 directory with a `scalemesh.toml`, runs the `scalemesh` command line on it and
 merges the `mesh.msh` it writes into the GUI: the tetrahedra, the physical
 groups (fluid, wall, one per opening) and the views (D, D_out, d, ...).
@@ -235,23 +237,46 @@ def patch_name(name, tag):
     return cleaned
 
 
+def option_table(binary):
+    """The meshing options as `scalemesh options --json` lists them (section,
+    key, kind, default, min, max, choices, unit, doc), by Python keyword: the
+    defaults, ranges and help shown here are scalemesh's own."""
+    listed = subprocess.run([binary, "options", "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            universal_newlines=True)
+    if listed.returncode != 0:
+        raise RuntimeError("%s options --json failed (exit code %d): %s"
+                           % (binary, listed.returncode, listed.stderr.strip()))
+    return {o["keyword"]: o for o in json.loads(listed.stdout)}
+
+
+# The options shown in the GUI: (keyword, parameter name, slider step).
+GUI_OPTIONS = [("M", "1Sizing/1M", 1), ("K", "1Sizing/2K", 0.1), ("L_min", "1Sizing/3L_min (mm)", 0.1),
+               ("L_max", "1Sizing/4L_max (mm)", 1), ("G", "1Sizing/5G", 0.05), ("growth", "2Volume/growth", 0.05)]
+# A length is given here in mm, 0 meaning scalemesh's default; its slider
+# ends at this many mm (scalemesh bounds a length only below, by 0).
+LENGTH_SLIDER_MAX = 1000
+
+
+def define_option(client, option, name, step):
+    """One option of the table as a number parameter, with its default, range and doc."""
+    help_text = option["doc"]
+    if option["unit"]:
+        help_text += " (%s)" % option["unit"]
+    if option["kind"] == "length":
+        default = option["default"]
+        help_text += "; 0: the default, %s" % ("unset" if default is None else
+                                               default if isinstance(default, str) else "%g mm" % default)
+        return client.define("number", ROOT + name, 0, min=0, max=LENGTH_SLIDER_MAX, step=step, help=help_text)
+    interval = "%s%g, %g]" % ("(" if option["min_open"] else "[", option["min"], option["max"])
+    return client.define("number", ROOT + name, option["default"], min=option["min"], max=option["max"], step=step,
+                         help="%s, in %s" % (help_text, interval))
+
+
 def define_parameters(client):
     """Every parameter shown in the GUI, with the user's current values."""
     values = {
         "input": client.define("string", ROOT + "0Input file", "", kind="file",
                                help="surface (.stl .ply .obj .vtp .msh) or image (.vdb .nii .nii.gz .nrrd .mha)"),
-        "M": client.define("number", ROOT + "1Sizing/1M", 7, min=1, max=100, step=1,
-                           help="element layers across a cross-section"),
-        "K": client.define("number", ROOT + "1Sizing/2K", 4.2, min=0.1, max=20, step=0.1,
-                           help="anisotropy: surface edge length over layer thickness near the wall"),
-        "L_min": client.define("number", ROOT + "1Sizing/3L_min (mm)", 0, min=0, max=1000, step=0.1,
-                               help="smallest feature size in mm; 0: half a voxel (the case file's default)"),
-        "L_max": client.define("number", ROOT + "1Sizing/4L_max (mm)", 0, min=0, max=10000, step=1,
-                               help="largest feature size in mm; 0: the largest extent of the surface"),
-        "G": client.define("number", ROOT + "1Sizing/5G", 0.85, min=0.01, max=10, step=0.05,
-                           help="gradient limit of the feature size"),
-        "growth": client.define("number", ROOT + "2Volume/growth", 1.0, min=1, max=3, step=0.05,
-                                help="thickness ratio of successive layers"),
         "binary": client.define("string", ROOT + "4Run/scalemesh binary", "",
                                 help="empty: $SCALEMESH_BINARY, the installed bin/scalemesh, or scalemesh on PATH"),
         "case": client.define("string", ROOT + "4Run/Case directory", "",
@@ -259,6 +284,9 @@ def define_parameters(client):
                                    "that is not writable)"),
         "openings": [],
     }
+    values["options"] = option_table(find_binary(values))
+    for keyword, name, step in GUI_OPTIONS:
+        values[keyword] = define_option(client, values["options"][keyword], name, step)
     path = values["input"]
     if path.lower().endswith(".msh") and os.path.isfile(path):
         try:
@@ -284,12 +312,15 @@ def toml_string(text):
 
 def case_file(values):
     lines = ["# Written by scalemesh_gui.py from the Gmsh GUI's parameters.",
-             "[input]", "file = %s" % toml_string(os.path.abspath(values["input"])),
-             "", "[sizing]", "M = %.16g" % values["M"], "K = %.16g" % values["K"], "G = %.16g" % values["G"]]
-    for key in ("L_min", "L_max"):
-        if values[key] > 0:
-            lines.append("%s = %.16g" % (key, values[key]))
-    lines += ["", "[volume]", "growth = %.16g" % values["growth"]]
+             "[input]", "file = %s" % toml_string(os.path.abspath(values["input"]))]
+    sections = {}
+    for keyword, _, _ in GUI_OPTIONS:
+        option = values["options"][keyword]
+        if option["kind"] == "length" and values[keyword] <= 0:
+            continue  # scalemesh's default
+        sections.setdefault(option["section"], []).append("%s = %.16g" % (option["key"], values[keyword]))
+    for section, keys in sections.items():
+        lines += ["", "[%s]" % section] + keys
     for name, otype, tag in values["openings"]:
         lines += ["", "[[openings]]", "name = %s" % toml_string(name), "type = %s" % toml_string(otype),
                   "label = %d" % tag]

@@ -1,4 +1,5 @@
-// The scalemesh command line: verbs phantom, surface, run and check. Errors
+// The scalemesh command line: verbs phantom, surface, run, init, check and
+// options. Errors
 // from the library become one line on stderr and a non-zero exit code; an
 // interrupt removes every output still being written. Progress goes to stderr
 // (cli/progress.h).
@@ -15,6 +16,7 @@
 #include "phantom/phantom.h"
 #include "pipeline/case_init.h"
 #include "pipeline/memory_estimate.h"
+#include "pipeline/options_table.h"
 #include "pipeline/run_case.h"
 #include "volume/quality.h"
 
@@ -172,6 +174,12 @@ int main(int argc, char** argv)
                                                   "dihedral angles, histogram");
     check_cmd->add_option("mesh", check_mesh, "Volume mesh (.msh, as scalemesh run writes it)")->required();
 
+    // options
+    bool options_json = false;
+    auto* options_cmd = app.add_subcommand("options", "List the meshing options: case-file section and key, Python "
+                                                      "keyword, kind, default, range or choices, unit, meaning");
+    options_cmd->add_flag("--json", options_json, "As a JSON array (read by the Gmsh GUI client, scalemesh_gui.py)");
+
     try {
         std::vector<std::string> args = openfoam_style(argc, argv, app);
         std::reverse(args.begin(), args.end()); // CLI11 takes them last first
@@ -187,7 +195,9 @@ int main(int argc, char** argv)
     ProgressDisplay display(verbosity, stderr, terminal, *run_cmd ? 6 : 4);
 
     try {
-        if (*phantom_cmd) {
+        if (*options_cmd) {
+            std::fputs((options_json ? mesh_options_json() : mesh_options_text()).c_str(), stdout);
+        } else if (*phantom_cmd) {
             if (extension_of(phantom_out) != ".vdb")
                 throw InputError("the phantom output '" + phantom_out + "' must end in .vdb",
                                  "give -o NAME.vdb");

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include <fstream>
+#include <set>
 
 namespace scalemesh {
 namespace {
@@ -282,6 +283,42 @@ TEST(Cli, CommandLineMistakesEndWithTwo)
     EXPECT_EQ(run_scalemesh({"frobnicate"}).exit_code, 2);                      // an unknown verb
     EXPECT_EQ(run_scalemesh({"--version"}).exit_code, 0);
     EXPECT_EQ(run_scalemesh({"--help"}).exit_code, 0);
+}
+
+// Issue 44: `scalemesh options --json` lists the meshing options, as the
+// Gmsh GUI client reads them: every one with its fields, a case-file key
+// documented under its section of docs/case-file.md.
+TEST(Cli, OptionsJsonListsEveryMeshingOption)
+{
+    const CommandResult r = run_scalemesh({"options", "--json"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const nlohmann::json table = nlohmann::json::parse(r.out);
+    std::set<std::string> keywords;
+    const std::string doc = read_text("docs/case-file.md");
+    for (const nlohmann::json& option : table) {
+        for (const char* field : {"section", "key", "keyword", "kind", "default", "unit", "doc"})
+            EXPECT_TRUE(option.contains(field)) << field << " missing from " << option;
+        keywords.insert(option["keyword"].get<std::string>());
+        if (option["kind"] == "number" || option["kind"] == "integer") {
+            EXPECT_LT(option["min"].get<double>(), option["max"].get<double>()) << option;
+        }
+        if (option["kind"] == "choice") {
+            EXPECT_NE(std::find(option["choices"].begin(), option["choices"].end(), option["default"]),
+                      option["choices"].end()) << option;
+        }
+        const std::string section = option["section"];
+        if (section.empty()) continue; // the library's and Python's alone
+        const size_t at = doc.find("## [" + section + "]");
+        ASSERT_NE(at, std::string::npos) << section;
+        const size_t row = doc.find("| `" + option["key"].get<std::string>() + "` |", at);
+        EXPECT_LT(row, doc.find("\n## ", at + 1)) << option["key"] << " not documented under [" << section << "]";
+    }
+    EXPECT_EQ(keywords, (std::set<std::string>{"K", "M", "G", "L_min", "L_max", "curvature", "smoothing_sweeps",
+                                               "smoothing_omega", "smoothing_reach", "remesh_cycles", "growth",
+                                               "first_layer", "layers", "layer_tolerance", "threads", "max_memory"}));
+    const CommandResult text = run_scalemesh({"options"});
+    EXPECT_EQ(text.exit_code, 0) << text.err;
+    EXPECT_NE(text.out.find("[sizing] K = 4.2"), std::string::npos) << text.out;
 }
 
 // The case's floors ([volume] min_layer_coverage, min_aspect_ratio,
