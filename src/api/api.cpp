@@ -18,84 +18,25 @@
 
 #include <algorithm>
 #include <array>
-#include <charconv>
 #include <cmath>
 #include <limits>
 #include <optional>
 
 namespace scalemesh {
 
-std::string detail::toml_number(double v)
-{
-    if (std::isnan(v)) return "nan";
-    if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
-    std::array<char, 64> text;
-    const auto end = std::to_chars(text.data(), text.data() + text.size(), v).ptr;
-    std::string out(text.data(), end);
-    if (out.find_first_of(".e") == std::string::npos) out += ".0";
-    return out;
-}
-
-CaseConfig detail::with_case_keys(const CaseConfig& base, const std::string& sections, const std::string& source)
-{
-    // The [input] file only makes the text a case; it is never read.
-    const CaseConfig read = parse_case("[input]\nfile = \"surface-in-memory.ply\"\n" + sections, ".", source);
-    CaseConfig out = base;
-    out.viscosity = read.viscosity;
-    out.inlet_speed = read.inlet_speed;
-    out.openfoam_binary = read.openfoam_binary;
-    out.layer_prisms = read.layer_prisms;
-    out.msh_version = read.msh_version;
-    out.msh_binary = read.msh_binary;
-    return out;
-}
-
 namespace {
 
-using detail::toml_number;
-
-std::string toml_length(const MeshLength& l)
-{
-    if (!std::isfinite(l.value)) return toml_number(l.value); // refused as "not a length"
-    std::array<char, 64> text;
-    const auto end = std::to_chars(text.data(), text.data() + text.size(), l.value).ptr;
-    return toml_string(std::string(text.data(), end) + (l.voxels ? " voxels" : " mm"));
-}
-
-// The case a run through the library amounts to: the input and openings
-// written as the case file's keys and read by the case reader, the meshing
-// options set from `o` directly (config_from_options), every value checked,
-// and named, as in a scalemesh.toml.
+// The case a run through the library amounts to, every value checked, and
+// named, as in a scalemesh.toml: `file` the input image or surface file
+// (empty: run_pipeline is handed the input in memory).
 CaseConfig case_for(const std::filesystem::path& file, const MeshOptions& o, const ImageOptions& image)
 {
-    std::string text = "[input]\nfile = " + toml_string(file.string()) + "\n";
-    if (!image.grid.empty()) text += "grid = " + toml_string(image.grid) + "\n";
-    if (!image.labels.empty()) {
-        text += "labels = [";
-        for (size_t i = 0; i < image.labels.size(); ++i) text += (i ? ", " : "") + std::to_string(image.labels[i]);
-        text += "]\n";
-    }
-    if (image.threshold) text += "threshold = " + toml_number(*image.threshold) + "\n";
-    if (image.level_set) text += "level_set = true\n";
-    if (image.iso) text += "iso = " + toml_number(*image.iso) + "\n";
-    text += "connectivity = " + std::to_string(image.connectivity) + "\n";
-    if (image.units != "mm") text += "units = " + toml_string(image.units) + "\n";
-    for (const MeshOpening& opening : o.openings) {
-        const auto xyz = [](const std::array<double, 3>& v) {
-            return "[" + toml_number(v[0]) + ", " + toml_number(v[1]) + ", " + toml_number(v[2]) + "]";
-        };
-        text += "[[openings]]\nname = " + toml_string(opening.name) + "\n";
-        if (!opening.type.empty()) text += "type = " + toml_string(opening.type) + "\n";
-        if (opening.point) text += "point = " + xyz(*opening.point) + "\n";
-        if (opening.normal) text += "normal = " + xyz(*opening.normal) + "\n";
-        if (opening.radius != 0) text += "radius = " + toml_number(opening.radius) + "\n";
-        if (!opening.border.empty()) text += "border = " + toml_string(opening.border) + "\n";
-        if (opening.inset) text += "inset = " + toml_length(*opening.inset) + "\n";
-        if (opening.near) text += "near = " + xyz(*opening.near) + "\n";
-        if (opening.label) text += "label = " + std::to_string(*opening.label) + "\n";
-        if (opening.extension != 0) text += "extension = " + toml_number(opening.extension) + "\n";
-    }
-    const CaseConfig config = config_from_options(o, parse_case(text, ".", "mesh options"));
+    CaseConfig config;
+    config.directory = ".";
+    config.source = "mesh options";
+    config = input_from_options(file, image, std::move(config));
+    config = openings_from_options(o.openings, std::move(config));
+    config = config_from_options(o, std::move(config));
     if (config.remesh_cycles < 1)
         throw InputError("mesh options: remesh_cycles = 0 builds no volume mesh", "give 1 to 100 cycles (default 3)");
     return config;
@@ -283,9 +224,7 @@ VoxelArray voxel_array(const ImageView& view)
 MeshResult mesh_surface(const SurfaceInput& surface, const MeshOptions& options)
 {
     const SurfaceMesh input = checked_surface(surface);
-    // The case's [input] file is never read: run_pipeline takes the surface
-    // in memory (the name only makes the case a surface case).
-    const CaseConfig config = case_for("surface-in-memory.ply", options, {});
+    const CaseConfig config = case_for({}, options, {}); // run_pipeline takes the surface in memory
     if (!surface.labels.empty()) {
         // The labels name patches by the nearest input triangle, which an
         // opening's cap (a new, flat face) has none of.
@@ -334,9 +273,7 @@ MeshResult mesh_image(const ImageView& image, const MeshOptions& options, const 
         throw InputError("ImageOptions::units is the length unit of a surface file, and an image in memory is none",
                          "give the spacing and origin in mm and leave units \"mm\"");
     const VoxelArray voxels = voxel_array(image);
-    // The case's [input] file is never read: run_pipeline takes the voxels
-    // in memory (the name only makes the case an image case).
-    const CaseConfig config = case_for("image-in-memory.nii", options, how);
+    const CaseConfig config = case_for({}, options, how); // run_pipeline takes the voxels in memory
     PipelineRun run = run_for_mesh(config, options, nullptr, &voxels);
     MeshResult result = to_result(run, config);
     keep_run(result, std::move(run), config, false);

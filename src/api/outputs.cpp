@@ -22,8 +22,6 @@ namespace scalemesh {
 
 namespace {
 
-using detail::toml_number;
-
 const detail::RunState& state_of(const MeshResult& result, const std::string& function)
 {
     if (!result.run)
@@ -52,8 +50,6 @@ template <class F> auto in_arena(const CaseConfig& config, F&& f)
     return arena.execute(std::forward<F>(f));
 }
 
-std::string toml_bool(bool b) { return b ? "true" : "false"; }
-
 } // namespace
 
 OpenFoamCase write_openfoam(const MeshResult& result, const std::filesystem::path& case_dir,
@@ -61,12 +57,11 @@ OpenFoamCase write_openfoam(const MeshResult& result, const std::filesystem::pat
 {
     const detail::RunState& state = state_of(result, "write_openfoam");
     if (case_dir.empty()) throw InputError("write_openfoam: the case directory is empty", "give a directory path");
-    CaseConfig config = detail::with_case_keys(
-        state.config,
-        "[flow]\nviscosity = " + toml_number(options.viscosity) + "\ninlet_speed = " +
-            toml_number(options.inlet_speed) + "\n[output]\nopenfoam_format = \"" +
-            (options.binary ? "binary" : "ascii") + "\"\nlayer_prisms = " + toml_bool(options.layer_prisms) + "\n",
-        "write_openfoam options");
+    CaseConfig config = state.config;
+    config.source = "write_openfoam options";
+    config = flow_from_options(options.viscosity, options.inlet_speed, std::move(config));
+    config.openfoam_binary = options.binary;
+    config.layer_prisms = options.layer_prisms;
     config.openfoam = true;
     config.surface_outputs.clear();
     config.volume_outputs.clear();
@@ -120,10 +115,9 @@ void write_msh(const MeshResult& result, const std::filesystem::path& path, cons
     if (path.extension() != ".msh")
         throw InputError("write_msh: '" + path.string() + "' does not end in .msh",
                          "give a path ending in .msh (Gmsh's writer follows the extension)");
-    const CaseConfig config = detail::with_case_keys(state.config,
-                                                     "[output]\nmsh_version = " + toml_number(options.version) +
-                                                         "\nmsh_binary = " + toml_bool(options.binary) + "\n",
-                                                     "write_msh options");
+    CaseConfig config = state.config;
+    config.source = "write_msh options";
+    config = msh_from_options(options.version, options.binary, std::move(config));
     const TetMesh mesh = case_mesh(config, state.run, request_for(state));
     // The host's session, adopted: write_volume_msh's own session nests in
     // it and neither initialises nor finalises Gmsh.

@@ -24,15 +24,6 @@ struct RunState {
     std::vector<std::string> patch_names;
 };
 
-// A TOML number that reads back as exactly `v` (NaN and infinities too,
-// which the case reader then refuses with the key's name).
-std::string toml_number(double v);
-
-// `base` with the keys of `sections` (case-file TOML: [flow] and [output]
-// keys) read by the case reader and checked as in a case file; `source`
-// names the options in its messages. Throws InputError.
-CaseConfig with_case_keys(const CaseConfig& base, const std::string& sections, const std::string& source);
-
 // Throws InputError, with `hint`, unless the process's Gmsh session is
 // initialised and holds a model (Gmsh 4.8 cannot be asked otherwise).
 void require_gmsh_session(const std::string& hint);

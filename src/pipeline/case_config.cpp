@@ -7,10 +7,12 @@
 #include <toml++/toml.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <climits>
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <map>
 #include <set>
@@ -32,6 +34,32 @@ std::string join(const std::vector<std::string>& items)
     std::string out;
     for (const std::string& s : items) out += (out.empty() ? "" : ", ") + s;
     return out;
+}
+
+// `v`, refused unless finite and in [lo, hi] ((lo, hi] with lo_open):
+// "<where> = <v> is out of range".
+double in_range(const std::string& where, double v, double lo, double hi, bool lo_open = false)
+{
+    if (!std::isfinite(v) || v > hi || (lo_open ? v <= lo : v < lo)) {
+        std::ostringstream range;
+        range << (lo_open ? "(" : "[") << lo << ", " << hi << "]";
+        throw InputError(where + " = " + std::to_string(v) + " is out of range", "choose a value in " + range.str());
+    }
+    return v;
+}
+
+// Refuses `v` unless it is one of `choices`: "<where> = "v" is not <what>",
+// with `hint` (by default the choices quoted, as in: choose "ascii" or "binary").
+void one_of(const std::string& where, const std::string& v, const std::vector<std::string>& choices,
+            const std::string& what, std::string hint = "")
+{
+    if (std::find(choices.begin(), choices.end(), v) != choices.end()) return;
+    if (hint.empty()) {
+        hint = "choose";
+        for (size_t i = 0; i < choices.size(); ++i)
+            hint += std::string(i == 0 ? " " : i + 1 == choices.size() ? " or " : ", ") + "\"" + choices[i] + "\"";
+    }
+    throw InputError(where + " = \"" + v + "\" is not " + what, hint);
 }
 
 // Reads one table, refusing keys it does not know.
@@ -74,14 +102,7 @@ public:
 
     double number(const std::string& key, double fallback, double lo, double hi, bool lo_open = false) const
     {
-        const double v = get<double>(key).value_or(fallback);
-        if (!std::isfinite(v) || v > hi || (lo_open ? v <= lo : v < lo)) {
-            std::ostringstream range;
-            range << (lo_open ? "(" : "[") << lo << ", " << hi << "]";
-            throw InputError(where(key) + " = " + std::to_string(v) + " is out of range",
-                             "choose a value in " + range.str());
-        }
-        return v;
+        return in_range(where(key), get<double>(key).value_or(fallback), lo, hi, lo_open);
     }
 
     // The string `key` if given, refused unless it is one of `choices`: the
@@ -91,13 +112,8 @@ public:
                                       const std::string& what, std::string hint = "") const
     {
         const std::optional<std::string> v = get<std::string>(key);
-        if (!v || std::find(choices.begin(), choices.end(), *v) != choices.end()) return v;
-        if (hint.empty()) {
-            hint = "choose";
-            for (size_t i = 0; i < choices.size(); ++i)
-                hint += std::string(i == 0 ? " " : i + 1 == choices.size() ? " or " : ", ") + "\"" + choices[i] + "\"";
-        }
-        throw InputError(where(key) + " = \"" + *v + "\" is not " + what, hint);
+        if (v) one_of(where(key), *v, choices, what, hint);
+        return v;
     }
 
     Length length(const std::string& key) const
@@ -173,15 +189,7 @@ void check_value(const OptionInfo&, bool, const std::string&) {}
 
 void check_value(const OptionInfo& option, const std::string& value, const std::string& where)
 {
-    if (std::find(option.choices.begin(), option.choices.end(), value) != option.choices.end()) return;
-    std::string hint = option.hint;
-    if (hint.empty()) {
-        hint = "choose";
-        for (size_t i = 0; i < option.choices.size(); ++i)
-            hint += std::string(i == 0 ? " " : i + 1 == option.choices.size() ? " or " : ", ") + "\"" +
-                    option.choices[i] + "\"";
-    }
-    throw InputError(where + " = \"" + value + "\" is not " + option.what, hint);
+    one_of(where, value, option.choices, option.what, option.hint);
 }
 
 void check_value(const OptionInfo&, const MeshLength& value, const std::string& where)
@@ -240,6 +248,141 @@ void set_options(CaseConfig& config, const MeshOptions& options)
     config.threads = options.threads;
 }
 
+const std::vector<std::string> opening_keys = {"name",   "type",  "point",     "normal", "radius",
+                                                "border", "inset", "extension", "near",   "label"};
+
+[[noreturn]] void refuse_label(const std::string& where)
+{
+    throw InputError(where + " must be a face label, an integer >= 0",
+                     "write label = 2 (the ModelFaceID or physical surface of the cap)");
+}
+
+// Opening `index` (from 0) of the case, as `given` holds it, checked: `has`
+// says which of its keys were given; `names` holds the names of the
+// openings before it. InputError naming "<source>: [openings] [index + 1] key".
+CaseConfig::Opening checked_opening(const MeshOpening& given, const std::function<bool(const std::string&)>& has,
+                                    const std::string& source, size_t index, std::set<std::string>& names)
+{
+    const auto where = [&](const std::string& key) {
+        return source + ": [openings] [" + std::to_string(index + 1) + "] " + key;
+    };
+    CaseConfig::Opening item;
+    OpeningSpec& spec = item.spec;
+    spec.name = given.name;
+    const bool word = !spec.name.empty() && !std::isdigit(static_cast<unsigned char>(spec.name[0])) &&
+                      std::all_of(spec.name.begin(), spec.name.end(), [](char c) {
+                          return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
+                      });
+    if (!word)
+        throw InputError(where("name") + " = \"" + spec.name + "\" is not a valid patch name",
+                         "give a name of letters, digits and '_' not starting with a digit, e.g. \"inlet\"");
+    if (spec.name == "wall")
+        throw InputError(where("name") + " = \"wall\" is the name of the vessel wall", "choose another name, e.g. \"inlet\"");
+    if (!names.insert(spec.name).second)
+        throw InputError(where("name") + ": two openings are named '" + spec.name + "'", "give every opening its own name");
+    if (!has("type"))
+        throw InputError(where("type") + " is missing: opening '" + spec.name + "' needs a type",
+                         "add type = \"inlet\" or type = \"outlet\" (the flow enters at inlets)");
+    one_of(where("type"), given.type, {"inlet", "outlet"}, "an opening type");
+    spec.type = given.type == "inlet" ? OpeningType::Inlet : OpeningType::Outlet;
+    const auto vector = [&](const std::string& key, const std::array<double, 3>& xyz) {
+        if (!std::all_of(xyz.begin(), xyz.end(), [](double v) { return std::isfinite(v); }))
+            throw InputError(where(key) + " must be a list of 3 numbers", "write " + key + " = [0, 0, 1]");
+        return Vec3{xyz[0], xyz[1], xyz[2]};
+    };
+    const bool plane = has("point") || has("normal");
+    if (has("near") || has("label")) {
+        // An open end of the surface (or a flat labelled cap), found at import.
+        if (plane || has("border") || has("radius") || has("inset") || (has("near") && has("label")))
+            throw InputError(source + ": opening '" + spec.name + "' names an open end by " +
+                                 (has("near") ? "near" : "label") + " and must not also give " +
+                                 (has("near") && has("label") ? "label" : "a plane, border, radius or inset"),
+                             "keep near = [x, y, z] (a point near the end's loop) or label = N, not both, "
+                             "and no plane");
+        if (given.near) item.near = vector("near", *given.near);
+        if (given.label) {
+            if (*given.label < 0) refuse_label(where("label"));
+            item.label = *given.label;
+        }
+        spec.extension = in_range(where("extension"), given.extension, 0, 100);
+        return item;
+    }
+    if (plane == has("border"))
+        throw InputError(source + ": opening '" + spec.name + "' needs either point and normal (a clip plane) "
+                         "or border (a side of the image)",
+                         "write point = [x, y, z] and normal = [nx, ny, nz] in mm, or border = \"z-\"");
+    if (plane) {
+        if (!given.point || !given.normal)
+            throw InputError(source + ": opening '" + spec.name + "' needs both point and normal",
+                             "write point = [x, y, z] (mm) and normal = [nx, ny, nz] (pointing out of the lumen)");
+        spec.plane.point = vector("point", *given.point);
+        const Vec3 normal = vector("normal", *given.normal);
+        if (!(norm(normal) > 0))
+            throw InputError(where("normal") + " is the zero vector",
+                             "give the direction pointing out of the lumen, e.g. [0, 0, 1]");
+        spec.plane.normal = normalized(normal);
+        spec.radius = in_range(where("radius"), given.radius, 0, 1e9);
+        if (has("inset")) throw InputError(where("inset") + " applies to border openings only", "remove it");
+    } else {
+        spec.border = true;
+        static const std::vector<std::string> sides = {"x-", "x+", "y-", "y+", "z-", "z+"};
+        one_of(where("border"), given.border, sides, "a side of the image", "choose one of: " + join(sides));
+        spec.side = given.border;
+        if (has("radius"))
+            throw InputError(where("radius") + " applies to clip planes only",
+                             "remove it: every piece of the border cross-section becomes an opening");
+        // inset: "auto" (empty, the default) leaves spec.inset empty for
+        // cut_and_cap to choose; a length is kept in item.inset and marks
+        // spec.inset as given, resolved to mm once the voxel width is known.
+        if (given.inset) {
+            if (!(given.inset->value > 0) || !std::isfinite(given.inset->value))
+                throw InputError(where("inset") + " must be a positive length", "give a positive number of mm or voxels");
+            item.inset = {given.inset->value, given.inset->voxels};
+            spec.inset = 0.0;
+        }
+    }
+    spec.extension = in_range(where("extension"), given.extension, 0, 100);
+    return item;
+}
+
+[[noreturn]] void refuse_connectivity(const std::string& where, int64_t connectivity)
+{
+    throw InputError(where + " = " + std::to_string(connectivity) + " is not valid",
+                     "choose 6 (diagonal voxels stay apart, the default) or 26 (they join)");
+}
+
+// `config` (its file set) with the [input] keys of an image or surface file
+// as `image` holds them, checked; `has` says which keys were given.
+// InputError naming "<config.source>: [input] key".
+CaseConfig checked_input(const ImageOptions& image, const std::function<bool(const std::string&)>& has,
+                         CaseConfig config)
+{
+    const auto where = [&](const std::string& key) { return config.source + ": [input] " + key; };
+    config.grid = image.grid;
+    config.labels = image.labels;
+    if (image.threshold) config.threshold = in_range(where("threshold"), *image.threshold, -1e30, 1e30);
+    config.level_set = image.level_set;
+    if (int(!config.labels.empty()) + int(config.threshold.has_value()) + int(config.level_set) > 1)
+        throw InputError(config.source + ": [input] labels, threshold and level_set exclude each other",
+                         "give labels for a label map, threshold for an intensity image, or level_set = true");
+    if (image.iso) config.iso = in_range(where("iso"), *image.iso, -1e30, 1e30);
+    if (image.connectivity != 6 && image.connectivity != 26) refuse_connectivity(where("connectivity"), image.connectivity);
+    config.connectivity = image.connectivity == 6 ? InsideConnectivity::Six : InsideConnectivity::TwentySix;
+    if (has("units")) {
+        if (!is_surface_file(config.file))
+            throw InputError(where("units") + " applies to surface files (.stl, .ply, .obj, .vtp, .msh) only",
+                             "images carry their own spacing and phantoms are in mm; remove the key");
+        config.units = image.units;
+        try {
+            config.units_to_mm = unit_to_mm(config.units);
+        } catch (const InputError&) {
+            throw InputError(where("units") + " = \"" + config.units + "\" is not a unit",
+                             "choose \"mm\" (the default), \"cm\", \"m\" or \"um\"");
+        }
+    }
+    return config;
+}
+
 } // namespace
 
 CaseConfig::CaseConfig() { set_options(*this, MeshOptions{}); }
@@ -257,6 +400,52 @@ CaseConfig config_from_options(const MeshOptions& options, CaseConfig config)
                              case_length(options.L_min).text() + ")",
                          "L_min <= L_max is required: the zone of scale invariance is [L_min, L_max]");
     set_options(config, options);
+    return config;
+}
+
+CaseConfig flow_from_options(double viscosity, double inlet_speed, CaseConfig config)
+{
+    config.viscosity = in_range(config.source + ": [flow] viscosity", viscosity, 0, 1, true);
+    config.inlet_speed = in_range(config.source + ": [flow] inlet_speed", inlet_speed, 0, 1e3, true);
+    return config;
+}
+
+CaseConfig msh_from_options(double version, bool binary, CaseConfig config)
+{
+    if (version != 4.1 && version != 2.2)
+        throw InputError(config.source + ": [output] msh_version must be 4.1 or 2.2",
+                         "4.1 is Gmsh's current format; 2.2 is read by older tools and gmshToFoam");
+    config.msh_version = version;
+    config.msh_binary = binary;
+    return config;
+}
+
+CaseConfig input_from_options(const std::filesystem::path& file, const ImageOptions& image, CaseConfig config)
+{
+    config.file = file;
+    const auto has = [&](const std::string& key) { return key == "units" && image.units != "mm"; };
+    return checked_input(image, has, std::move(config));
+}
+
+CaseConfig openings_from_options(const std::vector<MeshOpening>& openings, CaseConfig config)
+{
+    config.openings.clear();
+    std::set<std::string> names;
+    for (size_t i = 0; i < openings.size(); ++i) {
+        const MeshOpening& o = openings[i];
+        const auto has = [&](const std::string& key) {
+            return key == "type"     ? !o.type.empty()
+                   : key == "point"  ? o.point.has_value()
+                   : key == "normal" ? o.normal.has_value()
+                   : key == "radius" ? o.radius != 0
+                   : key == "border" ? !o.border.empty()
+                   : key == "inset"  ? o.inset.has_value()
+                   : key == "near"   ? o.near.has_value()
+                   : key == "label"  ? o.label.has_value()
+                                     : false;
+        };
+        config.openings.push_back(checked_opening(o, has, config.source, i, names));
+    }
     return config;
 }
 
@@ -316,7 +505,10 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
     const int64_t seed = input.get<int64_t>("seed").value_or(1);
     if (seed < 0) throw InputError(input.where("seed") + " must not be negative", "give a seed >= 0");
     config.seed = static_cast<uint64_t>(seed);
-    config.grid = input.get<std::string>("grid").value_or("");
+    // The keys of an image or surface file as the library's ImageOptions
+    // holds them, read as their type; checked_input checks the values.
+    ImageOptions image;
+    image.grid = input.get<std::string>("grid").value_or("");
     if (input.has("labels")) {
         const toml::array* labels = root["input"]["labels"].as_array();
         if (!labels) throw InputError(input.where("labels") + " must be a list of integers", "write labels = [1]");
@@ -324,14 +516,17 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
             const auto v = item.value<int64_t>();
             if (!v || !item.is_integer() || *v < INT32_MIN || *v > INT32_MAX)
                 throw InputError(input.where("labels") + " holds a value that is not an integer", "write labels = [1, 2]");
-            config.labels.push_back(static_cast<int>(*v));
+            image.labels.push_back(static_cast<int>(*v));
         }
     }
-    if (input.has("threshold")) config.threshold = input.number("threshold", 0, -1e30, 1e30);
-    config.level_set = input.get<bool>("level_set").value_or(false);
-    if (int(!config.labels.empty()) + int(config.threshold.has_value()) + int(config.level_set) > 1)
-        throw InputError(source + ": [input] labels, threshold and level_set exclude each other",
-                         "give labels for a label map, threshold for an intensity image, or level_set = true");
+    image.threshold = input.get<double>("threshold");
+    image.level_set = input.get<bool>("level_set").value_or(false);
+    image.iso = input.get<double>("iso");
+    const int64_t connectivity = input.get<int64_t>("connectivity").value_or(6);
+    if (connectivity != 6 && connectivity != 26) refuse_connectivity(input.where("connectivity"), connectivity);
+    image.connectivity = static_cast<int>(connectivity);
+    image.units = input.get<std::string>("units").value_or("mm");
+    config = checked_input(image, [&](const std::string& key) { return input.has(key); }, std::move(config));
     const std::string keep =
         input.choice("keep", {"all", "largest"}, "valid",
                      "choose \"all\" (every region of the segmentation, the default) or \"largest\" (the region "
@@ -341,24 +536,6 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
         throw InputError(input.where("keep") + " = \"largest\" applies to label images and phantoms",
                          "a level set or a surface file keeps its regions; remove the key");
     config.keep_largest = keep == "largest";
-    if (input.has("iso")) config.iso = input.number("iso", 0, -1e30, 1e30);
-    const int64_t connectivity = input.get<int64_t>("connectivity").value_or(6);
-    if (connectivity != 6 && connectivity != 26)
-        throw InputError(input.where("connectivity") + " = " + std::to_string(connectivity) + " is not valid",
-                         "choose 6 (diagonal voxels stay apart, the default) or 26 (they join)");
-    config.connectivity = connectivity == 6 ? InsideConnectivity::Six : InsideConnectivity::TwentySix;
-    if (input.has("units")) {
-        if (!is_surface_file(config.file))
-            throw InputError(input.where("units") + " applies to surface files (.stl, .ply, .obj, .vtp, .msh) only",
-                             "images carry their own spacing and phantoms are in mm; remove the key");
-        config.units = *input.get<std::string>("units");
-        try {
-            config.units_to_mm = unit_to_mm(config.units);
-        } catch (const InputError&) {
-            throw InputError(input.where("units") + " = \"" + config.units + "\" is not a unit",
-                             "choose \"mm\" (the default), \"cm\", \"m\" or \"um\"");
-        }
-    }
 
     // The meshing options, read as their kind (integers range-checked before
     // they are narrowed to their member), then checked and set by
@@ -385,106 +562,50 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
         std::set<std::string> names;
         for (size_t i = 0; i < openings->size(); ++i) {
             const toml::table* table = (*openings)[i].as_table();
-            const Section opening(table, "openings] [" + std::to_string(i + 1), source,
-                                  {"name", "type", "point", "normal", "radius", "border", "inset", "extension", "near", "label"});
-            CaseConfig::Opening item;
-            OpeningSpec& spec = item.spec;
-            spec.name = opening.get<std::string>("name").value_or("");
-            const bool word = !spec.name.empty() && !std::isdigit(static_cast<unsigned char>(spec.name[0])) &&
-                              std::all_of(spec.name.begin(), spec.name.end(), [](char c) {
-                                  return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
-                              });
-            if (!word)
-                throw InputError(opening.where("name") + " = \"" + spec.name + "\" is not a valid patch name",
-                                 "give a name of letters, digits and '_' not starting with a digit, e.g. \"inlet\"");
-            if (spec.name == "wall")
-                throw InputError(opening.where("name") + " = \"wall\" is the name of the vessel wall",
-                                 "choose another name, e.g. \"inlet\"");
-            if (!names.insert(spec.name).second)
-                throw InputError(opening.where("name") + ": two openings are named '" + spec.name + "'",
-                                 "give every opening its own name");
-            if (!(*table)["type"])
-                throw InputError(opening.where("type") + " is missing: opening '" + spec.name + "' needs a type",
-                                 "add type = \"inlet\" or type = \"outlet\" (the flow enters at inlets)");
-            const std::string type = opening.choice("type", {"inlet", "outlet"}, "an opening type").value_or("");
-            spec.type = type == "inlet" ? OpeningType::Inlet : OpeningType::Outlet;
-            const auto vector = [&](const std::string& key) {
+            const Section opening(table, "openings] [" + std::to_string(i + 1), source, opening_keys);
+            // The table's keys as the library's MeshOpening holds them, read
+            // as their type; checked_opening checks the values.
+            MeshOpening given;
+            given.name = opening.get<std::string>("name").value_or("");
+            given.type = opening.get<std::string>("type").value_or("");
+            const auto vector = [&](const std::string& key) -> std::optional<std::array<double, 3>> {
+                if (!opening.has(key)) return std::nullopt;
                 const toml::array* xyz = (*table)[key].as_array();
-                Vec3 out;
+                std::array<double, 3> out;
                 if (!xyz || xyz->size() != 3)
                     throw InputError(opening.where(key) + " must be a list of 3 numbers", "write " + key + " = [0, 0, 1]");
                 for (size_t k = 0; k < 3; ++k) {
                     const auto value = (*xyz)[k].value<double>();
-                    if (!value || !std::isfinite(*value))
+                    if (!value)
                         throw InputError(opening.where(key) + " must be a list of 3 numbers", "write " + key + " = [0, 0, 1]");
-                    out[static_cast<int>(k)] = *value;
+                    out[k] = *value;
                 }
                 return out;
             };
-            const bool plane = opening.has("point") || opening.has("normal");
-            if (opening.has("near") || opening.has("label")) {
-                // An open end of the surface (or a flat labelled cap), found at import.
-                if (plane || opening.has("border") || opening.has("radius") || opening.has("inset") ||
-                    (opening.has("near") && opening.has("label")))
-                    throw InputError(source + ": opening '" + spec.name + "' names an open end by " +
-                                         (opening.has("near") ? "near" : "label") +
-                                         " and must not also give " +
-                                         (opening.has("near") && opening.has("label") ? "label" : "a plane, border, radius or inset"),
-                                     "keep near = [x, y, z] (a point near the end's loop) or label = N, not both, "
-                                     "and no plane");
-                if (opening.has("near")) item.near = vector("near");
-                if (opening.has("label")) {
-                    const auto label = opening.get<int64_t>("label");
-                    if (!label || *label < 0 || *label > std::numeric_limits<int32_t>::max())
-                        throw InputError(opening.where("label") + " must be a face label, an integer >= 0",
-                                         "write label = 2 (the ModelFaceID or physical surface of the cap)");
-                    item.label = static_cast<int32_t>(*label);
-                }
-                spec.extension = opening.number("extension", 0, 0, 100);
-                config.openings.push_back(item);
-                continue;
+            given.point = vector("point");
+            given.normal = vector("normal");
+            given.near = vector("near");
+            given.radius = opening.get<double>("radius").value_or(0);
+            given.border = opening.get<std::string>("border").value_or("");
+            // inset: "auto" (the default) leaves it empty.
+            if (opening.has("inset") && opening.get<std::string>("inset").value_or("") != "auto") {
+                const Length inset = opening.length("inset");
+                given.inset = MeshLength{inset.value, inset.voxels};
             }
-            if (plane == opening.has("border"))
-                throw InputError(source + ": opening '" + spec.name + "' needs either point and normal (a clip plane) "
-                                 "or border (a side of the image)",
-                                 "write point = [x, y, z] and normal = [nx, ny, nz] in mm, or border = \"z-\"");
-            if (plane) {
-                if (!opening.has("point") || !opening.has("normal"))
-                    throw InputError(source + ": opening '" + spec.name + "' needs both point and normal",
-                                     "write point = [x, y, z] (mm) and normal = [nx, ny, nz] (pointing out of the lumen)");
-                spec.plane.point = vector("point");
-                const Vec3 normal = vector("normal");
-                if (!(norm(normal) > 0))
-                    throw InputError(opening.where("normal") + " is the zero vector",
-                                     "give the direction pointing out of the lumen, e.g. [0, 0, 1]");
-                spec.plane.normal = normalized(normal);
-                spec.radius = opening.number("radius", 0, 0, 1e9);
-                if (opening.has("inset"))
-                    throw InputError(opening.where("inset") + " applies to border openings only", "remove it");
-            } else {
-                spec.border = true;
-                static const std::vector<std::string> sides = {"x-", "x+", "y-", "y+", "z-", "z+"};
-                spec.side = opening.choice("border", sides, "a side of the image", "choose one of: " + join(sides))
-                                .value_or("");
-                if (opening.has("radius"))
-                    throw InputError(opening.where("radius") + " applies to clip planes only",
-                                     "remove it: every piece of the border cross-section becomes an opening");
-                // inset: "auto" (the default) leaves spec.inset empty for cut_and_cap
-                // to choose; a length is kept in item.inset and marks spec.inset
-                // as given, resolved to mm once the voxel width is known.
-                if (opening.has("inset") && opening.get<std::string>("inset").value_or("") != "auto") {
-                    item.inset = opening.length("inset");
-                    spec.inset = 0.0;
-                }
+            if (opening.has("label")) {
+                const auto label = opening.get<int64_t>("label");
+                if (!label || *label < 0 || *label > std::numeric_limits<int32_t>::max()) refuse_label(opening.where("label"));
+                given.label = static_cast<int32_t>(*label);
             }
-            spec.extension = opening.number("extension", 0, 0, 100);
-            config.openings.push_back(item);
+            given.extension = opening.get<double>("extension").value_or(0);
+            config.openings.push_back(checked_opening(given, [&](const std::string& key) { return opening.has(key); },
+                                                      source, i, names));
         }
     }
 
     const Section flow(root["flow"].as_table(), "flow", source, {"viscosity", "inlet_speed"});
-    config.viscosity = flow.number("viscosity", config.viscosity, 0, 1, true);
-    config.inlet_speed = flow.number("inlet_speed", config.inlet_speed, 0, 1e3, true);
+    config = flow_from_options(flow.get<double>("viscosity").value_or(config.viscosity),
+                               flow.get<double>("inlet_speed").value_or(config.inlet_speed), std::move(config));
 
     const Section output(root["output"].as_table(), "output", source,
                          {"surface", "volume", "openfoam", "openfoam_format", "layer_prisms", "msh_version",
@@ -535,11 +656,8 @@ CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir,
     config.openfoam_binary =
         output.choice("openfoam_format", {"ascii", "binary"}, "a format").value_or("ascii") == "binary";
     config.layer_prisms = output.get<bool>("layer_prisms").value_or(true);
-    config.msh_version = output.get<double>("msh_version").value_or(4.1);
-    if (config.msh_version != 4.1 && config.msh_version != 2.2)
-        throw InputError(output.where("msh_version") + " must be 4.1 or 2.2",
-                         "4.1 is Gmsh's current format; 2.2 is read by older tools and gmshToFoam");
-    config.msh_binary = output.get<bool>("msh_binary").value_or(false);
+    config = msh_from_options(output.get<double>("msh_version").value_or(config.msh_version),
+                              output.get<bool>("msh_binary").value_or(config.msh_binary), std::move(config));
     const int64_t decompose = output.get<int64_t>("decompose").value_or(1);
     if (decompose > std::numeric_limits<int32_t>::max())
         throw InputError(output.where("decompose") + " is more processor meshes than a mesh can have cells",

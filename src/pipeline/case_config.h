@@ -138,6 +138,25 @@ std::string toml_string(const std::string& s);
 // is checked; the run takes it from MeshOptions (RunOptions::max_memory).
 CaseConfig config_from_options(const MeshOptions& options, CaseConfig config);
 
+// `config` with [flow] viscosity (m^2/s) and inlet_speed (m/s), checked as
+// parse_case checks them (InputError naming config.source and the key).
+CaseConfig flow_from_options(double viscosity, double inlet_speed, CaseConfig config);
+
+// `config` with [output] msh_version (4.1 or 2.2) and msh_binary, checked as
+// parse_case checks them.
+CaseConfig msh_from_options(double version, bool binary, CaseConfig config);
+
+// `config` reading `file` (an image or a surface file; empty for an input
+// handed to run_pipeline in memory) as `image` says, checked as parse_case
+// checks [input] (InputError naming config.source and the key).
+CaseConfig input_from_options(const std::filesystem::path& file, const ImageOptions& image, CaseConfig config);
+
+// `config` with `openings` as its [[openings]] tables, each checked as
+// parse_case checks the table (InputError naming config.source, the
+// opening's index from 1 and the key, in parse_case's words). A key counts
+// as given when it is not empty (0 for radius and extension).
+CaseConfig openings_from_options(const std::vector<MeshOpening>& openings, CaseConfig config);
+
 // Parses a case file's text; `dir` is where relative paths resolve.
 CaseConfig parse_case(const std::string& text, const std::filesystem::path& dir, const std::string& source);
 

@@ -15,6 +15,8 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace scalemesh {
 namespace {
@@ -212,6 +214,70 @@ TEST(OptionsTable, AnOutOfRangeValueIsRefusedInTheSameWordsEitherWay)
     options.L_max = MeshLength::in_voxels(0.25);
     EXPECT_EQ(refusal([&] { parse_case(phantom + "[sizing]\nL_max = \"0.25 voxels\"\n", ".", "scalemesh.toml"); }),
               refusal([&] { config_from_options(options, named); }));
+}
+
+// The library's openings and image options are checked by the case
+// reader's own code: the same refusal either way.
+TEST(OptionsTable, OpeningsAndImageOptionsAreRefusedInTheCaseFilesWords)
+{
+    CaseConfig named;
+    named.source = "scalemesh.toml";
+    const auto opening = [](std::string name, std::string type) {
+        MeshOpening o;
+        o.name = std::move(name);
+        o.type = std::move(type);
+        return o;
+    };
+    std::vector<std::pair<std::string, MeshOpening>> openings;
+    openings.emplace_back("name = \"in\"\nnear = [0, 0, 1]\n", opening("in", ""));
+    openings.back().second.near = {{0, 0, 1}};
+    openings.emplace_back("name = \"in\"\ntype = \"sideways\"\nnear = [0, 0, 1]\n", opening("in", "sideways"));
+    openings.back().second.near = {{0, 0, 1}};
+    openings.emplace_back("name = \"wall\"\ntype = \"inlet\"\nborder = \"z-\"\n", opening("wall", "inlet"));
+    openings.back().second.border = "z-";
+    openings.emplace_back("name = \"in\"\ntype = \"inlet\"\nborder = \"w+\"\n", opening("in", "inlet"));
+    openings.back().second.border = "w+";
+    openings.emplace_back("name = \"in\"\ntype = \"inlet\"\nnear = [0, 0, 1]\npoint = [0, 0, 0]\n", opening("in", "inlet"));
+    openings.back().second.near = {{0, 0, 1}};
+    openings.back().second.point = {{0, 0, 0}};
+    openings.emplace_back("name = \"in\"\ntype = \"inlet\"\nlabel = 3\nextension = 200\n", opening("in", "inlet"));
+    openings.back().second.label = 3;
+    openings.back().second.extension = 200;
+    for (const auto& [toml, given] : openings) {
+        const std::string by_file =
+            refusal([&] { parse_case(phantom + "[[openings]]\n" + toml, ".", "scalemesh.toml"); });
+        EXPECT_NE(by_file, "(accepted)") << toml;
+        EXPECT_EQ(refusal([&] { openings_from_options({given}, named); }), by_file);
+    }
+    // An accepted opening is the same opening either way.
+    MeshOpening inlet = opening("in", "inlet");
+    inlet.point = {{0, 0, -1}};
+    inlet.normal = {{0, 0, -2}};
+    inlet.radius = 3;
+    const CaseConfig from_file = parse_case(
+        phantom + "[[openings]]\nname = \"in\"\ntype = \"inlet\"\npoint = [0, 0, -1]\nnormal = [0, 0, -2]\nradius = 3\n", ".",
+        "scalemesh.toml");
+    const CaseConfig from_options = openings_from_options({inlet}, named);
+    ASSERT_EQ(from_file.openings.size(), 1u);
+    ASSERT_EQ(from_options.openings.size(), 1u);
+    EXPECT_EQ(from_options.openings[0].spec.plane.normal.z, from_file.openings[0].spec.plane.normal.z);
+    EXPECT_EQ(from_options.openings[0].spec.radius, from_file.openings[0].spec.radius);
+    EXPECT_EQ(from_options.openings[0].spec.type, from_file.openings[0].spec.type);
+
+    const std::string image = "[input]\nfile = \"image.nii\"\n";
+    ImageOptions units;
+    units.units = "cm";
+    EXPECT_EQ(refusal([&] { input_from_options("image.nii", units, named); }),
+              refusal([&] { parse_case(image + "units = \"cm\"\n", ".", "scalemesh.toml"); }));
+    ImageOptions both;
+    both.labels = {1};
+    both.threshold = 0.5;
+    EXPECT_EQ(refusal([&] { input_from_options("image.nii", both, named); }),
+              refusal([&] { parse_case(image + "labels = [1]\nthreshold = 0.5\n", ".", "scalemesh.toml"); }));
+    ImageOptions diagonal;
+    diagonal.connectivity = 8;
+    EXPECT_EQ(refusal([&] { input_from_options("image.nii", diagonal, named); }),
+              refusal([&] { parse_case(image + "connectivity = 8\n", ".", "scalemesh.toml"); }));
 }
 
 } // namespace
