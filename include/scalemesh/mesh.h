@@ -87,6 +87,8 @@ struct MeshOpening {
 // every value is checked as the case file's is (InputError naming the
 // section and key). Ranges are written [a, b] (closed) and (a, b] (a left
 // out); a length is in mm or voxel widths (MeshLength) and positive.
+// `scalemesh options` lists them with their case-file keys, ranges and
+// meanings (`--json` for programs).
 struct MeshOptions {
     // [sizing], the paper's Algorithm 1.
     double K = 4.2;                          // anisotropy of the elements at the wall, surface edge length over
