@@ -16,9 +16,12 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <functional>
+#include <iterator>
 #include <map>
 #include <set>
 #include <string>
+#include <tuple>
 #include <vector>
 #include <utility>
 
@@ -312,6 +315,44 @@ TEST(Api, BadInputThrowsInputErrorSayingWhat)
         EXPECT_NE(std::string(e.what()).find("K"), std::string::npos) << e.what();
     }
     EXPECT_THROW(scalemesh::mesh_image("/nonexistent/image.vdb"), scalemesh::Error);
+}
+
+// Issue 44: an option out of range is refused in the same words by the
+// library and by `scalemesh run` reading it from a case file (the options'
+// one table checks both), each naming its own source.
+TEST(Api, AnOptionOutOfRangeIsRefusedAsTheCaseFileRefusesIt)
+{
+    const SurfaceInput sphere = icosphere(5.0, 2);
+    const scalemesh::TempDir dir;
+    const char* binary = std::getenv("SCALEMESH_BINARY");
+    ASSERT_NE(binary, nullptr) << "run through ctest";
+    const auto after_source = [](const std::string& message, const std::string& source) {
+        const size_t at = message.find(source + ": ");
+        return at == std::string::npos ? "(no " + source + " in: " + message + ")" : message.substr(at + source.size() + 2);
+    };
+    for (const auto& [section, key, value, set] :
+         std::vector<std::tuple<std::string, std::string, std::string, std::function<void(scalemesh::MeshOptions&)>>>{
+             {"sizing", "K", "-1", [](scalemesh::MeshOptions& o) { o.K = -1; }},
+             {"smoothing", "sweeps", "20000", [](scalemesh::MeshOptions& o) { o.smoothing_sweeps = 20000; }},
+             {"volume", "layers", "\"wedges\"", [](scalemesh::MeshOptions& o) { o.layers = "wedges"; }},
+             {"sizing", "L_min", "-2", [](scalemesh::MeshOptions& o) { o.L_min = scalemesh::MeshLength::mm(-2); }}}) {
+        scalemesh::MeshOptions options;
+        set(options);
+        std::string by_library;
+        try {
+            scalemesh::mesh_surface(sphere, options);
+        } catch (const scalemesh::InputError& e) {
+            by_library = e.what();
+        }
+        std::ofstream(dir.path / "scalemesh.toml") << "[input]\nphantom = \"sphere\"\n[" << section << "]\n"
+                                                   << key << " = " << value << "\n";
+        const std::filesystem::path err = dir.path / "stderr.txt";
+        EXPECT_EQ(std::system((std::string(binary) + " run -q '" + dir.path.string() + "' 2>'" + err.string() + "'").c_str()) == 0,
+                  false);
+        std::ifstream in(err);
+        const std::string by_case_file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        EXPECT_EQ(after_source(by_case_file, "scalemesh.toml"), after_source(by_library, "mesh options") + "\n") << key;
+    }
 }
 
 // An ellipsoid of semi-axes (a, b, c) mm centred in an nx x ny x nz label
