@@ -12,6 +12,7 @@
 
 #include <fstream>
 #include <set>
+#include <sstream>
 
 namespace scalemesh {
 namespace {
@@ -311,7 +312,21 @@ TEST(Cli, OptionsJsonListsEveryMeshingOption)
         const size_t at = doc.find("## [" + section + "]");
         ASSERT_NE(at, std::string::npos) << section;
         const size_t row = doc.find("| `" + option["key"].get<std::string>() + "` |", at);
-        EXPECT_LT(row, doc.find("\n## ", at + 1)) << option["key"] << " not documented under [" << section << "]";
+        ASSERT_LT(row, doc.find("\n## ", at + 1)) << option["key"] << " not documented under [" << section << "]";
+        // The row's default column (| `key` | type | default | meaning |)
+        // states MeshOptions{}'s value, as the table does.
+        std::vector<std::string> cells;
+        std::istringstream line(doc.substr(row + 2, doc.find('\n', row) - row - 2));
+        for (std::string cell; std::getline(line, cell, '|');) cells.push_back(cell.substr(1, cell.size() - 2));
+        ASSERT_GE(cells.size(), 3u) << option["key"];
+        const nlohmann::json& value = option["default"];
+        if (value.is_string()) {
+            EXPECT_EQ(cells[2], "`\"" + value.get<std::string>() + "\"`") << option["key"];
+        } else if (value.is_boolean()) {
+            EXPECT_EQ(cells[2], value.get<bool>() ? "true" : "false") << option["key"];
+        } else if (value.is_number()) {
+            EXPECT_EQ(std::stod(cells[2]), value.get<double>()) << option["key"];
+        }
     }
     EXPECT_EQ(keywords, (std::set<std::string>{"K", "M", "G", "L_min", "L_max", "curvature", "smoothing_sweeps",
                                                "smoothing_omega", "smoothing_reach", "remesh_cycles", "growth",
