@@ -7,7 +7,7 @@ Regenerate them, from the project root, with the command line built:
 
 (`apt-get install xvfb python3-gmsh`.) Gmsh draws through its FLTK window:
 the script runs itself again under `xvfb-run`, a virtual screen of 24-bit
-colour, so it needs no display and draws the same on any machine. The script meshes the shared
+colour, so it needs no display. The script meshes the shared
 aorta surface (`../shared/data/vmtk_aorta_capped.stl`, as
 `cases/aorta_surface`, here with three clip-plane openings so that it has
 caps) with `scalemesh run` in a temporary directory, then loads its
@@ -20,11 +20,13 @@ Each tet is coloured by the `layer` view scalemesh writes into mesh.msh:
 the wall layers 1 to floor(M/2) from the wall inwards, then the core. The cut
 keeps whole tets (those whose centre lies behind the plane), so the cut face
 shows the cells as they are. mesh.msh stores a layer prism as its three
-tets, and so does the picture. The run uses one thread: its output, and so
-the pictures, are the same on any machine.
+tets, and so does the picture. The run uses one thread, so its mesh is the
+same every time, and a rerun on one machine draws the same pixels (the PNG
+files' bytes may still differ).
 """
 import argparse
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -151,9 +153,7 @@ def set_view(rotation, size, scale=1.0):
 
 def render(path):
     gmsh.graphics.draw()
-    pass  # gmsh.fltk.update()
-    gmsh.graphics.draw()
-    gmsh.write(path)
+    gmsh.write(path)  # a .png: what the window shows
     print(f"wrote {os.path.relpath(path)} ({os.path.getsize(path) // 1024} KB)")
 
 
@@ -162,6 +162,8 @@ def main():
         # Gmsh draws in its FLTK window: give it a virtual screen of its own,
         # with 24-bit colour, whatever display there is or is not.
         os.environ["SCALEMESH_PICTURES_XVFB"] = "1"
+        if shutil.which("xvfb-run") is None:
+            sys.exit("render_pictures.py: xvfb-run is not installed (apt-get install xvfb)")
         command = ["xvfb-run", "-a", "-s", "-screen 0 1920x1200x24", sys.executable] + sys.argv
         os.execvp(command[0], command)
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
