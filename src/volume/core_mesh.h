@@ -2,10 +2,11 @@
 // The core of a volume mesh with prism layers: the region above the layer
 // stack (layer_stack.h), bounded by the stack's top triangles and the inner
 // parts of the openings' caps, filled with tets that keep that boundary
-// triangle for triangle. Gmsh's 3D Delaunay mesher does the filling (its
-// boundary recovery keeps a boundary whose triangles are all recovered,
-// adding no point on it), with its own optimisation; the caller's cell
-// passes follow with the boundary frozen.
+// triangle for triangle. Gmsh's 3D Delaunay tetrahedrisation with its
+// boundary recovery does the filling ("initial mesh only": the recovery
+// keeps a boundary whose triangles are all recovered, adding no point on
+// it; no refinement, no optimisation), the region's tets are told from a
+// cavity's here; the caller's cell passes follow with the boundary frozen.
 
 #include "core/surface_mesh.h"
 #include "core/tet_mesh.h"
@@ -28,10 +29,8 @@ namespace scalemesh {
 // options it set restored. One call at a time (Gmsh is not reentrant).
 // `inside` are points to mesh with (embedded in the volume, after the
 // boundary's in mesh.points, in their order); each must lie strictly inside
-// the region. Gmsh 4.8 adds no point of its own to a volume bounded by a
-// discrete surface where no size field asks for one, and its refinement
-// loop is held to one try, so these are the core's points (a point Gmsh
-// did add would follow them).
+// the region. Gmsh's initial mesh adds no point of its own inside (its
+// boundary recovery may add Steiner points, which would follow them).
 TetMesh mesh_core(const SurfaceMesh& boundary, const std::vector<Vec3>& inside = {});
 
 } // namespace scalemesh
