@@ -46,8 +46,12 @@ write_basic_package_version_file("${PROJECT_BINARY_DIR}/scalemeshConfigVersion.c
                                  COMPATIBILITY SameMinorVersion)
 install(FILES "${PROJECT_BINARY_DIR}/scalemeshConfig.cmake" "${PROJECT_BINARY_DIR}/scalemeshConfigVersion.cmake"
         DESTINATION "${SCALEMESH_CMAKE_DIR}" COMPONENT dev)
-install(FILES README.md docs/case-file.md docs/user-guide.md DESTINATION "${CMAKE_INSTALL_DOCDIR}"
-        COMPONENT runtime)
+# The README beside the docs/ it links to, so that its links and pictures
+# resolve in the installed copy.
+install(FILES README.md DESTINATION "${CMAKE_INSTALL_DOCDIR}" COMPONENT runtime)
+file(GLOB SCALEMESH_DOCS "${PROJECT_SOURCE_DIR}/docs/*.md" "${PROJECT_SOURCE_DIR}/docs/*.png")
+install(FILES ${SCALEMESH_DOCS} DESTINATION "${CMAKE_INSTALL_DOCDIR}/docs" COMPONENT runtime)
+install(DIRECTORY docs/images DESTINATION "${CMAKE_INSTALL_DOCDIR}/docs" COMPONENT runtime)
 # The Gmsh GUI client (`gmsh share/scalemesh/scalemesh_gui.py`); it finds
 # bin/scalemesh of the same prefix.
 install(PROGRAMS tools/scalemesh_gui.py DESTINATION "${CMAKE_INSTALL_DATADIR}/scalemesh" COMPONENT runtime)
