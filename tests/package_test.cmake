@@ -1,7 +1,8 @@
 # The installed package as a user meets it: `cmake --install` of this build
 # into a scratch prefix, then tests/package/ configured against it with
 # find_package(scalemesh), built (C++17) and run (it meshes a sphere through
-# the library and checks the result). Any failing step fails the test. The
+# the library and checks the result), and the installed Python module
+# (tests/package/installed_python.py). Any failing step fails the test. The
 # library is the shared libscalemesh.so.0 with its stages inside: no static
 # library is installed, and the consumer's direct NEEDED entries (readelf -d)
 # name libscalemesh.so.0 and none of the third-party libraries it links.
@@ -82,4 +83,10 @@ foreach(name IN LISTS consumer_needed)
   endif()
 endforeach()
 step("run the consumer" "${WORK_DIR}/consumer/consumer")
+# The installed Python module: the shared aorta STL through mesh_image, its
+# case through checkMesh, to_meshio, a NumPy ball of voxels.
+step("the installed Python module" "${CMAKE_COMMAND}" -E env
+     "PYTHONPATH=${prefix}/lib/python3/dist-packages" "WM_PROJECT_DIR=/usr/share/openfoam"
+     /usr/bin/python3 "${SOURCE_DIR}/tests/package/installed_python.py" "${prefix}"
+     "${SOURCE_DIR}/../shared/data/vmtk_aorta_capped.stl")
 file(REMOVE_RECURSE "${WORK_DIR}")
