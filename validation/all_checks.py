@@ -78,7 +78,9 @@ def check_mesh(case, all_checks):
     stars = [line.strip() for line in text.splitlines() if line.strip().startswith("***")]
     return {"cells": int(m.group(1)) if m else None,
             "mesh_ok": "Mesh OK." in text,
-            "failed": int(failed.group(1)) if failed else 0,
+            # None: checkMesh ended without its verdict (it crashed), which
+            # counts as neither a pass nor a number of failed checks.
+            "failed": int(failed.group(1)) if failed else (0 if "Mesh OK." in text else None),
             "failed_checks": stars,
             "exit_code": code}
 
@@ -276,7 +278,7 @@ def one_case(name, scratch, binary):
     """scalemesh and snappyHexMesh on one sample case: a results dict."""
     result = {"case": name}
     sm = os.path.join(scratch, name, "scalemesh")
-    os.makedirs(os.path.dirname(sm))
+    os.makedirs(os.path.dirname(sm), exist_ok=True)
     toml = copy_case(os.path.join(REPO, "cases", name), sm)
     text = open(toml).read()
     text, k = re.subn(r"(?m)^(\s*surface\s*=\s*)\[[^\]]*\]", r'\1["surface.msh"]', text)
@@ -321,7 +323,7 @@ def snappy_on_surface(name, sn, sm, target):
         cells = result["default"]["cells"]
         # One retry when the estimate missed by more than a factor of 2 and
         # the run was quick: h scaled by the cube root of the miss.
-        if tries or 0.5 <= cells / target <= 2 or seconds > RETRY_SECONDS:
+        if tries or cells is None or 0.5 <= cells / target <= 2 or seconds > RETRY_SECONDS:
             break
         tries.append({"h_mm": round(h, 4), "cells": cells, "seconds": round(seconds, 1)})
         scale *= (cells / target) ** (1 / 3)
@@ -337,7 +339,7 @@ def cylinder_case(M, scratch, binary):
     name = "cylinder-M%g" % M
     result = {"case": name}
     sm = os.path.join(scratch, name, "scalemesh")
-    os.makedirs(os.path.dirname(sm))
+    os.makedirs(os.path.dirname(sm), exist_ok=True)
     seconds = scalemesh_case(binary, M, sm, "cylinder")
     report = json.load(open(os.path.join(sm, "report.json")))
     result["scalemesh"] = {"seconds": round(seconds, 1),
@@ -372,7 +374,7 @@ def cylinder_surface_case(M, scratch, binary):
     result = {"case": name}
     source = os.path.join(scratch, "cylinder-M%g" % M, "scalemesh")
     sm = os.path.join(scratch, "cylinder-M%g" % M, "scalemesh-surface")
-    os.makedirs(sm)
+    os.makedirs(sm, exist_ok=True)
     for file in ("scalemesh.toml", "cylinder.stl"):
         shutil.copy(os.path.join(source, file), sm)
     toml = os.path.join(sm, "scalemesh.toml")
@@ -424,11 +426,13 @@ def row(r):
                 note = {"prisms": "prisms", "delaunay": "Delaunay"}.get(m.get("layers_built"), "?")
             else:
                 note = "%.3g mm, %.2f" % (m["h_mm"], m.get("wall_layers_mean", float("nan")))
-            cols += ["{:,} ({})".format(m["default"]["cells"], note),
-                     "%d / %d" % (m["default"]["failed"], m["all"]["failed"]), checks_text(m)]
+            count = lambda n: "error" if n is None else "%d" % n  # noqa: E731
+            cells = m["default"]["cells"]
+            cols += ["{:,} ({})".format(cells, note) if cells is not None else "? (%s)" % note,
+                     "%s / %s" % (count(m["default"]["failed"]), count(m["all"]["failed"])), checks_text(m)]
     sm, sn = r.get("scalemesh", {}), r.get("snappy", {})
-    cols.append("yes" if "all" in sm and "all" in sn and sm["all"]["failed"] <= sn["all"]["failed"] else
-                "no" if "all" in sm and "all" in sn else "-")
+    known = "all" in sm and "all" in sn and sm["all"]["failed"] is not None and sn["all"]["failed"] is not None
+    cols.append(("yes" if sm["all"]["failed"] <= sn["all"]["failed"] else "no") if known else "-")
     return "| " + " | ".join(cols) + " |"
 
 

@@ -38,7 +38,8 @@ CaseConfig case_for(const std::filesystem::path& file, const MeshOptions& o, con
     config = openings_from_options(o.openings, std::move(config));
     config = config_from_options(o, std::move(config));
     if (config.remesh_cycles < 1)
-        throw InputError("mesh options: remesh_cycles = 0 builds no volume mesh", "give 1 to 100 cycles (default 3)");
+        throw InputError("mesh options: remesh_cycles = 0 builds no volume mesh",
+                         "give 1 to 100 cycles (default " + std::to_string(MeshOptions{}.remesh_cycles) + ")");
     return config;
 }
 

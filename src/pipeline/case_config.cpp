@@ -22,9 +22,7 @@ namespace scalemesh {
 
 std::string Length::text() const
 {
-    std::ostringstream out;
-    out << value << (voxels ? " voxels" : " mm");
-    return out.str();
+    return number_text(value) + (voxels ? " voxels" : " mm");
 }
 
 namespace {
@@ -41,9 +39,9 @@ std::string join(const std::vector<std::string>& items)
 double in_range(const std::string& where, double v, double lo, double hi, bool lo_open = false)
 {
     if (!std::isfinite(v) || v > hi || (lo_open ? v <= lo : v < lo)) {
-        std::ostringstream range;
-        range << (lo_open ? "(" : "[") << lo << ", " << hi << "]";
-        throw InputError(where + " = " + std::to_string(v) + " is out of range", "choose a value in " + range.str());
+        throw InputError(where + " = " + number_text(v) + " is out of range",
+                         "choose a value in " + std::string(lo_open ? "(" : "[") + number_text(lo) + ", " +
+                             number_text(hi) + "]");
     }
     return v;
 }
@@ -172,7 +170,7 @@ void check_integer(const OptionInfo& option, int64_t value, const std::string& w
 void check_value(const OptionInfo& option, double value, const std::string& where)
 {
     if (!std::isfinite(value) || value > option.max || (option.min_open ? value <= option.min : value < option.min))
-        out_of_range(option, where, std::to_string(value));
+        out_of_range(option, where, number_text(value));
 }
 
 void check_value(const OptionInfo& option, int value, const std::string& where)

@@ -2,6 +2,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include <array>
+#include <charconv>
+#include <cmath>
+#include <locale>
 #include <sstream>
 
 namespace scalemesh {
@@ -69,11 +73,18 @@ const OptionInfo* find_option(const std::string& keyword)
     return nullptr;
 }
 
+std::string number_text(double v)
+{
+    if (std::isnan(v)) return "nan";
+    if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+    std::array<char, 64> text;
+    const auto end = std::to_chars(text.data(), text.data() + text.size(), v).ptr;
+    return std::string(text.data(), end);
+}
+
 std::string range_text(const OptionInfo& option)
 {
-    std::ostringstream out;
-    out << (option.min_open ? "(" : "[") << option.min << ", " << option.max << "]";
-    return out.str();
+    return (option.min_open ? "(" : "[") + number_text(option.min) + ", " + number_text(option.max) + "]";
 }
 
 const char* option_kind_name(OptionKind kind)
@@ -91,6 +102,7 @@ nlohmann::json default_value(const OptionInfo& option)
     static const MeshOptions defaults;
     const auto length = [](const MeshLength& l) {
         std::ostringstream text;
+        text.imbue(std::locale::classic());
         text << l.value << " voxels";
         return l.voxels ? nlohmann::json(text.str()) : nlohmann::json(l.value);
     };
@@ -129,6 +141,7 @@ std::string mesh_options_json()
 std::string mesh_options_text()
 {
     std::ostringstream out;
+    out.imbue(std::locale::classic());
     for (const OptionInfo& option : mesh_option_table()) {
         if (option.section.empty()) out << option.key << " (library and Python only)";
         else out << "[" << option.section << "] " << option.key;

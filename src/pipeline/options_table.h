@@ -59,6 +59,10 @@ const OptionInfo* find_option(const std::string& keyword);
 // "number", "integer", "boolean", "choice" or "length".
 const char* option_kind_name(OptionKind kind);
 
+// A number as messages and the case file write it: the shortest text that
+// reads back as `v`, whatever the process's locale ("0.5", "1e-09", "3").
+std::string number_text(double v);
+
 // The range as the messages write it, e.g. "(0, 1000]".
 std::string range_text(const OptionInfo& option);
 

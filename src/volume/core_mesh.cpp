@@ -49,7 +49,10 @@ bool encloses(const SurfaceMesh& boundary, const std::vector<int32_t>& component
 // joined across faces that are not boundary triangles form components, and
 // a component is inside when its tets' faces on the boundary wind as the
 // boundary's triangles do (outward from the region), outside (a cavity's
-// inside, the hull's) when they wind the other way.
+// inside) when they wind the other way. A component whose faces on the
+// boundary wind both ways has leaked through a boundary triangle the
+// recovery did not keep: a StageError. One on no boundary triangle (none
+// after a recovery that kept the boundary) is left out.
 std::vector<char> enclosed_tets(const TetMesh& mesh, size_t boundary_points)
 {
     struct FaceHash {
@@ -64,6 +67,7 @@ std::vector<char> enclosed_tets(const TetMesh& mesh, size_t boundary_points)
         return f;
     };
     std::unordered_map<std::array<int32_t, 3>, Triangle, FaceHash> wall;
+    wall.reserve(mesh.boundary_faces.size());
     for (const Triangle& t : mesh.boundary_faces) wall.emplace(sorted({t[0], t[1], t[2]}), t);
     const auto same_winding = [](const Triangle& a, const std::array<int32_t, 3>& b) {
         for (int r = 0; r < 3; ++r)
@@ -73,13 +77,12 @@ std::vector<char> enclosed_tets(const TetMesh& mesh, size_t boundary_points)
     const TetFaceAdjacency adjacency = tet_face_adjacency(mesh);
     const size_t count = mesh.tets.size();
     std::vector<int32_t> component(count, -1);
-    std::vector<char> inside_component;
+    std::vector<std::array<int64_t, 2>> votes; // per component: boundary faces wound with the boundary, against
     std::vector<size_t> stack;
     for (size_t seed = 0; seed < count; ++seed) {
         if (component[seed] >= 0) continue;
-        const int32_t c = static_cast<int32_t>(inside_component.size());
-        inside_component.push_back(0);
-        bool decided = false;
+        const int32_t c = static_cast<int32_t>(votes.size());
+        votes.push_back({0, 0});
         component[seed] = c;
         stack.push_back(seed);
         while (!stack.empty()) {
@@ -93,7 +96,7 @@ std::vector<char> enclosed_tets(const TetMesh& mesh, size_t boundary_points)
                     face[2] < int32_t(boundary_points))
                     if (const auto it = wall.find(sorted(face)); it != wall.end()) {
                         on_boundary = true;
-                        if (!decided) inside_component[c] = same_winding(it->second, face), decided = true;
+                        ++votes[c][same_winding(it->second, face) ? 0 : 1];
                     }
                 const int32_t across = adjacency.across[4 * t + k];
                 if (on_boundary || across < 0 || component[across] >= 0) continue;
@@ -102,8 +105,13 @@ std::vector<char> enclosed_tets(const TetMesh& mesh, size_t boundary_points)
             }
         }
     }
+    for (const auto& [with, against] : votes)
+        if (with > 0 && against > 0)
+            throw StageError("volume", "Gmsh's core lost a triangle of the prism layers' top: a region of its tets "
+                                       "has " + std::to_string(with) + " faces on the top wound as the top and " +
+                                       std::to_string(against) + " wound against it");
     std::vector<char> keep(count);
-    for (size_t t = 0; t < count; ++t) keep[t] = inside_component[component[t]];
+    for (size_t t = 0; t < count; ++t) keep[t] = votes[component[t]][0] > 0;
     return keep;
 }
 
@@ -126,29 +134,30 @@ TetMesh mesh_core(const SurfaceMesh& boundary, const std::vector<Vec3>& inside)
     // An error Gmsh meets throws (caught below, and named) instead of ending
     // the process, whatever a host's session had set.
     session.set_option("General.AbortOnError", 3);
-    // Gmsh's "initial mesh only": the Delaunay tetrahedrisation of the
-    // boundary's points and the fillers, with the boundary recovered, and
-    // nothing after it. Its refinement loop inserts no point in a volume
-    // bounded by a discrete surface without a size field, yet it tried the
-    // circumcentre of every tet whose circumradius exceeds its shortest edge
-    // and rejected each, and it classified the tets into regions through
-    // two sorted sets of their faces; its optimisation swapped edges the
-    // cell passes swap again. On the 256 torus box the three took 21 of
-    // the 25 s of the volume stage (642,970 rejected tries); without them
-    // Gmsh takes 4 s. The tets are then classified here (enclosed_tets), and
-    // the core's sliver removal and the cell passes improve them.
-    session.set_option("Mesh.Algorithm3D", 3);
-    session.set_option("Mesh.Optimize", 0);
+    // Gmsh's optimisation (edge swaps for the tets' shape) runs after the
+    // mesh, at a quality threshold of 0.3: the cell passes that follow mend
+    // dihedral angles and non-orthogonality, not the interpolation weights
+    // and volume ratios that checkMesh -allGeometry judges, which without it
+    // failed on 5 of the 15 sample cases. Gmsh's refinement loop, which
+    // inserts no point in a volume bounded by a discrete surface without a
+    // size field, is held to one try (it tried the circumcentre of every
+    // tet whose circumradius exceeds its shortest edge and rejected each:
+    // 642,970 tries, 35 of a 46 s volume stage on the 256 torus box).
+    session.set_option("Mesh.Optimize", 1);
+    session.set_option("Mesh.OptimizeThreshold", 0.3);
+    session.set_option("Mesh.MaxIterDelaunay3D", 1);
     // Every option that shapes the tets set here, whatever a host's session
-    // set for its own model (a host meshing its surface with
-    // Mesh.MeshSizeMax would otherwise size the core too): the same core
-    // from the command line and inside a host. No point of Gmsh's own:
-    // the core's tets join the boundary's points and
-    // the fillers given (the paper's spacing, min(D, L_max) / M), as the
-    // conditional Delaunay insertion of the paper's layers does. A size
-    // field from the boundary made Gmsh refine the core down to the
-    // layers' top triangles: on the 256 torus box 2.8 times the tets of
-    // the Delaunay layers, and 92.8 of the 98.5 s of the volume stage.
+    // set for its own model: the same core from the command line and
+    // inside a host. The core's tets join the boundary's points and the
+    // fillers given (the paper's spacing, min(D, L_max) / M), as the
+    // conditional Delaunay insertion of the paper's layers does; the
+    // initial mesh adds no point of its own but the Steiner points its
+    // boundary recovery may need (none on the 256 torus box). The size
+    // options matter only to a refinement, which the initial mesh does not
+    // run: once Gmsh's refinement, sized from the boundary, had refined the
+    // core down to the layers' top triangles (on the 256 torus box 2.8
+    // times the tets of the Delaunay layers, 92.8 of the 98.5 s of the
+    // volume stage).
     session.set_option("Mesh.MeshSizeMax", 1e22);
     session.set_option("Mesh.MeshSizeMin", 0);
     session.set_option("Mesh.MeshSizeFactor", 1);
@@ -234,7 +243,17 @@ TetMesh mesh_core(const SurfaceMesh& boundary, const std::vector<Vec3>& inside)
             for (size_t r = 0; r < volumes.size(); ++r)
                 if (!in[r].empty()) gmsh::model::mesh::embed(0, in[r], 3, volumes[r]);
         }
+        // Without a cavity, Gmsh's initial mesh alone (the recovery's tets,
+        // which enclosed_tets classifies below) and then its optimisation:
+        // its full mesher would classify the tets through two sorted sets of
+        // their faces (4 s on the 256 torus box). With a cavity, the full
+        // mesher, whose classification leaves the cavity's inside out before
+        // the optimisation swaps edges (a swap across a cavity's surface
+        // with the cavity's tets still there would cut the surface).
+        const bool cavity = std::any_of(volume6.begin(), volume6.end(), [](double v) { return !(v > 0); });
+        session.set_option("Mesh.Algorithm3D", cavity ? 1 : 3);
         gmsh::model::mesh::generate(3);
+        if (!cavity) gmsh::model::mesh::optimize("");
 
         // Gmsh numbers the nodes its own way: each is known by where it is,
         // the boundary's and the embedded ones (which it does not move), and

@@ -3,10 +3,12 @@
 // stack (layer_stack.h), bounded by the stack's top triangles and the inner
 // parts of the openings' caps, filled with tets that keep that boundary
 // triangle for triangle. Gmsh's 3D Delaunay tetrahedrisation with its
-// boundary recovery does the filling ("initial mesh only": the recovery
+// boundary recovery does the filling (its "initial mesh only": the recovery
 // keeps a boundary whose triangles are all recovered, adding no point on
-// it; no refinement, no optimisation), the region's tets are told from a
-// cavity's here; the caller's cell passes follow with the boundary frozen.
+// it; the region's tets told from a cavity's here), then Gmsh's
+// optimisation; a boundary with a cavity goes through Gmsh's full mesher,
+// its refinement loop held to one try. The caller's cell passes follow with
+// the boundary frozen.
 
 #include "core/surface_mesh.h"
 #include "core/tet_mesh.h"
