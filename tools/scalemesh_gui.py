@@ -268,7 +268,9 @@ def define_option(client, option, name, step):
                                                default if isinstance(default, str) else "%g mm" % default)
         return client.define("number", ROOT + name, 0, min=0, max=LENGTH_SLIDER_MAX, step=step, help=help_text)
     interval = "%s%g, %g]" % ("(" if option["min_open"] else "[", option["min"], option["max"])
-    return client.define("number", ROOT + name, option["default"], min=option["min"], max=option["max"], step=step,
+    # An open lower end is not a value: the slider starts a step above it.
+    low = option["min"] + step if option["min_open"] else option["min"]
+    return client.define("number", ROOT + name, option["default"], min=low, max=option["max"], step=step,
                          help="%s, in %s" % (help_text, interval))
 
 
@@ -284,8 +286,16 @@ def define_parameters(client):
                                    "that is not writable)"),
         "openings": [],
     }
-    values["options"] = option_table(find_binary(values))
-    for keyword, name, step in GUI_OPTIONS:
+    # Without a scalemesh to list the options, the other parameters are
+    # still defined (the binary can be chosen, the openings listed), the
+    # reason shown once; Run says it again.
+    try:
+        values["options"] = option_table(find_binary(values))
+    except (RuntimeError, OSError, ValueError) as e:
+        values["options"] = None
+        values["options_error"] = str(e)
+        client.error(str(e))
+    for keyword, name, step in GUI_OPTIONS if values["options"] else []:
         values[keyword] = define_option(client, values["options"][keyword], name, step)
     path = values["input"]
     if path.lower().endswith(".msh") and os.path.isfile(path):
@@ -368,6 +378,8 @@ def run_scalemesh(client, values):
     if not os.path.isfile(values["input"]):
         raise RuntimeError("the input file '%s' does not exist: choose another under scalemesh > Input file"
                            % values["input"])
+    if values["options"] is None:
+        raise RuntimeError(values["options_error"])
     binary = find_binary(values)
     case = case_directory(values)
     with open(os.path.join(case, "scalemesh.toml"), "w") as f:

@@ -155,7 +155,40 @@ def case_merge(args):
     check_merged_model(workdir, case_dir, {(3, "fluid"), (2, "wall"), (2, "inlet"), (2, "outlet_1")})
 
 
+def check_without_a_binary():
+    """With no scalemesh to list the options, the client still defines the
+    input, binary and case parameters, and says why once."""
+    module = client_module()
+
+    class Client:
+        def __init__(self):
+            self.defined, self.errors = [], []
+
+        def define(self, ptype, name, value, **fields):
+            self.defined.append(name)
+            return value
+
+        def error(self, text):
+            self.errors.append(text)
+
+        def warning(self, text):
+            pass
+
+    def no_binary(values):
+        raise RuntimeError("cannot find the scalemesh program")
+
+    module.find_binary = no_binary
+    client = Client()
+    values = module.define_parameters(client)
+    check(all(any(n.endswith(end) for n in client.defined) for end in ("Input file", "scalemesh binary",
+                                                                        "Case directory")),
+          "without a scalemesh binary the input, binary and case parameters are defined: %s" % client.defined)
+    check(client.errors == ["cannot find the scalemesh program"] and values["options"] is None,
+          "without a scalemesh binary one error says why: %s" % client.errors)
+
+
 def case_error(args):
+    check_without_a_binary()
     workdir = fresh(args.workdir)
     with open(os.path.join(workdir, "broken.stl"), "w") as f:
         f.write("solid broken\nthis is not an STL facet\nendsolid broken\n")
