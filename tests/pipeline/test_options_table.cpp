@@ -247,7 +247,9 @@ TEST(OptionsTable, OpeningsAndImageOptionsAreRefusedInTheCaseFilesWords)
     openings.emplace_back("name = \"in\"\ntype = \"inlet\"\nlabel = 3\nextension = 200\n", opening("in", "inlet"));
     openings.back().second.label = 3;
     openings.back().second.extension = 200;
-    for (const auto& [toml, given] : openings) {
+    for (const auto& pair : openings) {
+        const std::string& toml = pair.first; // a reference, not a structured binding: lambdas capture it
+        const MeshOpening& given = pair.second;
         const std::string by_file =
             refusal([&] { parse_case(phantom + "[[openings]]\n" + toml, ".", "scalemesh.toml"); });
         EXPECT_NE(by_file, "(accepted)") << toml;
