@@ -25,6 +25,7 @@ same every time, and a rerun on one machine draws the same pixels (the PNG
 files' bytes may still differ).
 """
 import argparse
+import json
 import os
 import shutil
 import subprocess
@@ -40,35 +41,20 @@ SURFACE = os.path.normpath(os.path.join(ROOT, "..", "shared", "data", "vmtk_aort
 # cases/aorta_surface with openings: the proximal end (y = 181 mm) and the two
 # iliac arteries (y = 98 mm) cut by planes a few millimetres inside the
 # surface's own flat ends.
-CASE = """\
-[input]
-file = "{surface}"
-units = "mm"
+OPENINGS = [  # name, type, point, normal, radius (mm)
+    ("inlet", "inlet", (221.0, 175.0, 21.5), (0.0, 1.0, 0.0), 12.0),
+    ("right_iliac", "outlet", (210.3, 106.0, 30.7), (0.0, -1.0, 0.0), 7.0),
+    ("left_iliac", "outlet", (234.8, 106.0, 29.0), (0.0, -1.0, 0.0), 7.0),
+]
 
-[volume]
-min_dihedral_deg = 10
 
-[[openings]]
-name = "inlet"
-type = "inlet"
-point = [221.0, 175.0, 21.5]
-normal = [0.0, 1.0, 0.0]
-radius = 12.0
+def case_text(surface):
+    text = f'[input]\nfile = "{surface}"\nunits = "mm"\n\n[volume]\nmin_dihedral_deg = 10\n'
+    for name, kind, point, normal, radius in OPENINGS:
+        text += (f'\n[[openings]]\nname = "{name}"\ntype = "{kind}"\npoint = [{", ".join(map(str, point))}]\n'
+                 f'normal = [{", ".join(map(str, normal))}]\nradius = {radius}\n')
+    return text
 
-[[openings]]
-name = "right_iliac"
-type = "outlet"
-point = [210.3, 106.0, 30.7]
-normal = [0.0, -1.0, 0.0]
-radius = 7.0
-
-[[openings]]
-name = "left_iliac"
-type = "outlet"
-point = [234.8, 106.0, 29.0]
-normal = [0.0, -1.0, 0.0]
-radius = 7.0
-"""
 
 # Wall layers from the wall inwards (dark to light blue), then the core.
 LAYER_COLOURS = [(31, 78, 160), (66, 133, 214), (139, 187, 240), (176, 214, 250), (206, 228, 252)]
@@ -77,9 +63,11 @@ CORE_COLOUR = (236, 190, 120)
 
 def run_scalemesh(binary, directory):
     with open(os.path.join(directory, "scalemesh.toml"), "w") as f:
-        f.write(CASE.format(surface=SURFACE))
+        f.write(case_text(SURFACE))
     subprocess.run([binary, "run", directory, "--threads", "1", "-q"], check=True)
-    return os.path.join(directory, "mesh.msh")
+    with open(os.path.join(directory, "report.json")) as f:
+        layers = json.load(f)["layers"]["layermaking"]  # floor(M / 2), the layers the wall owes
+    return os.path.join(directory, "mesh.msh"), layers
 
 
 def read_mesh(path):
@@ -106,6 +94,8 @@ def read_mesh(path):
     for dim, group in gmsh.model.getPhysicalGroups(2):
         if gmsh.model.getPhysicalName(dim, group) == "wall":
             wall, _ = gmsh.model.mesh.getNodesForPhysicalGroup(dim, group)
+    if wall is None:
+        sys.exit(f"{path} has no physical surface named `wall`")
     return points, tets, layer, points[np.asarray(wall, dtype=int)]
 
 
@@ -176,12 +166,11 @@ def main():
     with tempfile.TemporaryDirectory(prefix="scalemesh-pictures-") as temporary:
         directory = args.keep or temporary
         os.makedirs(directory, exist_ok=True)
-        mesh = run_scalemesh(os.path.abspath(args.scalemesh), directory)
+        mesh, layers_owed = run_scalemesh(os.path.abspath(args.scalemesh), directory)
 
         gmsh.initialize()
         gmsh.option.setNumber("General.Terminal", 0)
         points, tets, layer, wall = read_mesh(mesh)
-        layers_owed = 3  # floor(M / 2) at the default M = 7
         gmsh.fltk.initialize()
         for name, value in (("General.SmallAxes", 0), ("General.BackgroundGradient", 0),
                             ("General.DrawBoundingBoxes", 0), ("Mesh.VolumeFaces", 1),
@@ -207,7 +196,7 @@ def main():
         set_view((0, 0, 90), (1400, 560), scale=2.3)
         render(os.path.join(args.out, "aorta-cutaway.png"))
 
-        # The inlet: its cap at y = 175 mm, normal +y; the last 10 mm of the
+        # The inlet: its cap at y = 175 mm (OPENINGS[0]), normal +y; the last 10 mm of the
         # vessel, seen from outside the cap.
         near_inlet = tet_centres[:, 1] > 175.0 - 10.0
         show(points, tets, layer, near_inlet, layers_owed, directory)

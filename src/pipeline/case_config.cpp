@@ -34,15 +34,19 @@ std::string join(const std::vector<std::string>& items)
     return out;
 }
 
+// Whether `v` is not a finite number in [lo, hi] ((lo, hi] with lo_open).
+bool outside(double v, double lo, double hi, bool lo_open)
+{
+    return !std::isfinite(v) || v > hi || (lo_open ? v <= lo : v < lo);
+}
+
 // `v`, refused unless finite and in [lo, hi] ((lo, hi] with lo_open):
 // "<where> = <v> is out of range".
 double in_range(const std::string& where, double v, double lo, double hi, bool lo_open = false)
 {
-    if (!std::isfinite(v) || v > hi || (lo_open ? v <= lo : v < lo)) {
+    if (outside(v, lo, hi, lo_open))
         throw InputError(where + " = " + number_text(v) + " is out of range",
-                         "choose a value in " + std::string(lo_open ? "(" : "[") + number_text(lo) + ", " +
-                             number_text(hi) + "]");
-    }
+                         "choose a value in " + interval_text(lo, hi, lo_open));
     return v;
 }
 
@@ -169,8 +173,7 @@ void check_integer(const OptionInfo& option, int64_t value, const std::string& w
 // option ("<source>: [section] key").
 void check_value(const OptionInfo& option, double value, const std::string& where)
 {
-    if (!std::isfinite(value) || value > option.max || (option.min_open ? value <= option.min : value < option.min))
-        out_of_range(option, where, number_text(value));
+    if (outside(value, option.min, option.max, option.min_open)) out_of_range(option, where, number_text(value));
 }
 
 void check_value(const OptionInfo& option, int value, const std::string& where)

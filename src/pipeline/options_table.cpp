@@ -82,9 +82,14 @@ std::string number_text(double v)
     return std::string(text.data(), end);
 }
 
+std::string interval_text(double lo, double hi, bool lo_open)
+{
+    return (lo_open ? "(" : "[") + number_text(lo) + ", " + number_text(hi) + "]";
+}
+
 std::string range_text(const OptionInfo& option)
 {
-    return (option.min_open ? "(" : "[") + number_text(option.min) + ", " + number_text(option.max) + "]";
+    return interval_text(option.min, option.max, option.min_open);
 }
 
 const char* option_kind_name(OptionKind kind)

@@ -63,7 +63,10 @@ const char* option_kind_name(OptionKind kind);
 // reads back as `v`, whatever the process's locale ("0.5", "1e-09", "3").
 std::string number_text(double v);
 
-// The range as the messages write it, e.g. "(0, 1000]".
+// An interval as the messages write it: "[lo, hi]", "(lo, hi]" with lo_open.
+std::string interval_text(double lo, double hi, bool lo_open);
+
+// The option's range as the messages write it, e.g. "(0, 1000]".
 std::string range_text(const OptionInfo& option);
 
 // The table as JSON (`scalemesh options --json`): an array of objects with

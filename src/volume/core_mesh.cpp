@@ -53,7 +53,7 @@ bool encloses(const SurfaceMesh& boundary, const std::vector<int32_t>& component
 // boundary wind both ways has leaked through a boundary triangle the
 // recovery did not keep: a StageError. One on no boundary triangle (none
 // after a recovery that kept the boundary) is left out.
-std::vector<char> enclosed_tets(const TetMesh& mesh, size_t boundary_points)
+std::vector<char> enclosed_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency, size_t boundary_points)
 {
     struct FaceHash {
         size_t operator()(const std::array<int32_t, 3>& f) const
@@ -74,7 +74,6 @@ std::vector<char> enclosed_tets(const TetMesh& mesh, size_t boundary_points)
             if (a[0] == b[r] && a[1] == b[(r + 1) % 3] && a[2] == b[(r + 2) % 3]) return true;
         return false;
     };
-    const TetFaceAdjacency adjacency = tet_face_adjacency(mesh);
     const size_t count = mesh.tets.size();
     std::vector<int32_t> component(count, -1);
     std::vector<std::array<int64_t, 2>> votes; // per component: boundary faces wound with the boundary, against
@@ -113,6 +112,29 @@ std::vector<char> enclosed_tets(const TetMesh& mesh, size_t boundary_points)
     std::vector<char> keep(count);
     for (size_t t = 0; t < count; ++t) keep[t] = votes[component[t]][0] > 0;
     return keep;
+}
+
+// Keeps the tets `keep` marks, in order, and their adjacency with them: a
+// face across to a tet left out becomes a boundary face. Leaving tets out
+// makes no face overshared, so only a mesh that had one is matched afresh.
+void keep_tets(TetMesh& mesh, TetFaceAdjacency& adjacency, const std::vector<char>& keep)
+{
+    std::vector<int32_t> index(mesh.tets.size(), TetFaceAdjacency::kBoundary);
+    size_t kept = 0;
+    for (size_t t = 0; t < mesh.tets.size(); ++t)
+        if (keep[t]) index[t] = static_cast<int32_t>(kept++);
+    for (size_t t = 0; t < mesh.tets.size(); ++t) {
+        if (!keep[t]) continue;
+        const size_t to = static_cast<size_t>(index[t]);
+        mesh.tets[to] = mesh.tets[t];
+        for (int k = 0; k < 4; ++k) {
+            const int32_t across = adjacency.across[4 * t + k];
+            adjacency.across[4 * to + k] = across >= 0 ? index[across] : across;
+        }
+    }
+    mesh.tets.resize(kept);
+    adjacency.across.resize(4 * kept);
+    if (adjacency.overshared_faces != 0) adjacency = tet_face_adjacency(mesh);
 }
 
 std::string last_error()
@@ -299,13 +321,8 @@ TetMesh mesh_core(const SurfaceMesh& boundary, const std::vector<Vec3>& inside)
     }
     // The boundary recovery keeps the tets inside a cavity's surface (the
     // hull's are carved away): only the region's are kept.
-    {
-        const std::vector<char> keep = enclosed_tets(mesh, nb);
-        size_t kept = 0;
-        for (size_t t = 0; t < mesh.tets.size(); ++t)
-            if (keep[t]) mesh.tets[kept++] = mesh.tets[t];
-        mesh.tets.resize(kept);
-    }
+    TetFaceAdjacency adjacency = tet_face_adjacency(mesh);
+    keep_tets(mesh, adjacency, enclosed_tets(mesh, adjacency, nb));
     // Points Gmsh could not insert (it reports them and goes on) are left out.
     std::vector<char> used(mesh.points.size(), 0);
     for (const Tet& t : mesh.tets)
@@ -325,7 +342,7 @@ TetMesh mesh_core(const SurfaceMesh& boundary, const std::vector<Vec3>& inside)
         throw StageError("volume", "Gmsh made no tets in the core inside the prism layers" +
                                        (last_error().empty() ? std::string() : ": " + last_error()));
     // Every boundary triangle a face of exactly one tet, every other face of two.
-    const TetMeshFacts facts = tet_mesh_facts(mesh, tet_face_adjacency(mesh));
+    const TetMeshFacts facts = tet_mesh_facts(mesh, adjacency);
     if (facts.nonpositive_tets != 0 || !facts.boundary_matches)
         throw StageError("volume", "Gmsh's core does not match the prism layers' top: " +
                                        std::to_string(facts.nonpositive_tets) + " flat or inverted tets, " +

@@ -5,11 +5,11 @@
 
 #include "hostile_support.h"
 #include "pipeline/memory_estimate.h"
+#include "support/comma_locale.h"
 
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
-#include <clocale>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -28,33 +28,13 @@ void write_plate(const TempDir& dir)
 }
 
 // The host's LC_NUMERIC does not change how a size reads. Under a locale
-// whose decimal separator is a comma (compiled here from glibc's de_DE
+// whose decimal separator is a comma (support/comma_locale.h: glibc's de_DE
 // source, which the locales package ships), "1.5 GiB" is still 1.5 GiB,
 // and "1,5G" is no size.
 TEST(MemoryLimit, SizesParseAlikeUnderACommaLocale)
 {
-    const TempDir dir;
-    const std::filesystem::path locale = dir.path / "de_DE.UTF-8";
-    const std::string compile = "localedef -c -i de_DE -f UTF-8 '" + locale.string() + "' >/dev/null 2>&1";
-    (void)std::system(compile.c_str()); // -c: written despite warnings, which set the exit code
-    ASSERT_TRUE(std::filesystem::exists(locale / "LC_NUMERIC"))
-        << "localedef could not compile de_DE (setup.sh installs the locales package)";
-    // The process's numeric locale and LOCPATH as they were, back however
-    // the test ends.
-    struct Restore {
-        std::string numeric = std::setlocale(LC_NUMERIC, nullptr);
-        const char* had_path = std::getenv("LOCPATH");
-        std::string path = had_path ? had_path : "";
-        ~Restore()
-        {
-            std::setlocale(LC_NUMERIC, numeric.c_str());
-            if (had_path) ::setenv("LOCPATH", path.c_str(), 1);
-            else ::unsetenv("LOCPATH");
-        }
-    } restore;
-    ::setenv("LOCPATH", dir.path.c_str(), 1);
-    ASSERT_NE(std::setlocale(LC_NUMERIC, "de_DE.UTF-8"), nullptr);
-    EXPECT_EQ(std::string(std::localeconv()->decimal_point), ","); // the locale is in effect
+    const CommaNumericLocale comma;
+    ASSERT_EQ(comma.failure(), "");
     EXPECT_EQ(parse_memory_size("1.5 GiB", "--max-memory"), 3LL << 29);
     EXPECT_THROW(parse_memory_size("1,5G", "--max-memory"), InputError);
 }
