@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <string>
 #include <tuple>
 #include <utility>
@@ -106,6 +107,7 @@ public:
         // feature the method resolves.
         for (double& v : d_) v = std::max(v, 0.1 * params.sizing.L_min);
         criteria_.set_input_points(mesh_.vertex_capacity());
+        if (params.relax_rims) find_rims();
     }
 
     RemeshResult run()
@@ -114,6 +116,13 @@ public:
         for (int cycle = 0; cycle < params_.cycles; ++cycle) {
             const auto start = std::chrono::steady_clock::now();
             RemeshCycle counts;
+            // RemeshParams::relax_rims: the last cycle's merges and swaps
+            // work on evened rims, and its bisections' rim edges are evened
+            // again below. In an earlier cycle, evened rims would keep the
+            // merges from coarsening the rim as far as the chord's damage
+            // allows.
+            const bool last = !rims_.empty() && cycle + 1 == params_.cycles;
+            if (last) relax_rims();
             mark_everything();
             int64_t merged = 0, swapped = 0;
             // "Until nothing changes", bounded: on surfaces with degenerate
@@ -128,6 +137,14 @@ public:
             } while ((merged > 0 || swapped > 0) && ++rounds < kMaxRounds);
             if (params_.conserve_volume) counts.max_volume_offset = restore_volume();
             counts.bisections = bisect_long_edges();
+            // The Rivara chains of the bisections halve rim edges shorter
+            // than the target; the moves' volume is given back as the
+            // swaps' is.
+            if (last) {
+                relax_rims();
+                if (params_.conserve_volume)
+                    counts.max_volume_offset = std::max(counts.max_volume_offset, restore_volume());
+            }
             smooth();
             counts.triangles = mesh_.live_faces();
             counts.seconds = seconds_since(start);
@@ -331,6 +348,175 @@ private:
         mesh_.set_positions(surface.points, vertex_of_point);
     }
 
+    // A rim as the input has it: a closed polyline and the arc length at
+    // each of its points.
+    struct Rim {
+        std::vector<Vec3> points;
+        std::vector<double> arc; // arc[k]: along the rim from points[0] to points[k]; arc.back(): the whole loop
+    };
+
+    // The rim halfedge leaving v along the flat patch's side (that patch's
+    // face to its left), or -1; its source and target are consecutive rim
+    // nodes in the rim's direction.
+    int32_t rim_out(int32_t v) const
+    {
+        const int32_t start = mesh_.outgoing(v);
+        int32_t h = start;
+        do {
+            if (mesh_.border_edge(h) && criteria_.planar(mesh_.patch(HalfedgeMesh::face(h)))) return h;
+            h = mesh_.rotate(h);
+        } while (h != start);
+        return -1;
+    }
+
+    // The rim halfedge arriving at v along the flat patch's side, or -1.
+    int32_t rim_in(int32_t v) const
+    {
+        const int32_t start = mesh_.outgoing(v);
+        int32_t h = start;
+        do {
+            const int32_t in = HalfedgeMesh::prev(h);
+            if (mesh_.border_edge(in) && criteria_.planar(mesh_.patch(HalfedgeMesh::face(in)))) return in;
+            h = mesh_.rotate(h);
+        } while (h != start);
+        return -1;
+    }
+
+    // The input's rims between a flat patch and another patch, each node
+    // on exactly two border edges (a node where rims meet is not a rim's:
+    // such rims are left as they are).
+    void find_rims()
+    {
+        if (!mesh_.has_patches()) return;
+        const int32_t n = mesh_.vertex_capacity();
+        rim_of_.assign(n, -1);
+        arc_of_.assign(n, 0.0);
+        std::vector<char> seen(n, 0);
+        for (int32_t v = 0; v < n; ++v) {
+            if (seen[v] || !mesh_.vertex_alive(v) || rim_out(v) < 0) continue;
+            Rim rim;
+            std::vector<int32_t> nodes;
+            bool simple = true;
+            int32_t u = v;
+            do {
+                seen[u] = 1;
+                simple = simple && mesh_.border_edges(u) == 2;
+                nodes.push_back(u);
+                const int32_t h = rim_out(u);
+                if (h < 0) {
+                    simple = false;
+                    break;
+                }
+                u = mesh_.to(h);
+            } while (u != v && !seen[u]);
+            if (!simple || u != v || nodes.size() < 3) continue;
+            double arc = 0;
+            for (size_t k = 0; k < nodes.size(); ++k) {
+                if (k > 0) arc += distance(mesh_.points[nodes[k - 1]], mesh_.points[nodes[k]]);
+                rim.points.push_back(mesh_.points[nodes[k]]);
+                rim.arc.push_back(arc);
+                rim_of_[nodes[k]] = static_cast<int32_t>(rims_.size());
+                arc_of_[nodes[k]] = arc;
+            }
+            rim.arc.push_back(arc + distance(mesh_.points[nodes.back()], mesh_.points[nodes.front()]));
+            rims_.push_back(std::move(rim));
+        }
+    }
+
+    // The point of `rim` at arc length s (taken around the loop).
+    Vec3 rim_point(const Rim& rim, double s) const
+    {
+        const double length = rim.arc.back();
+        s = std::fmod(s, length);
+        if (s < 0) s += length;
+        const size_t k = static_cast<size_t>(std::upper_bound(rim.arc.begin(), rim.arc.end(), s) - rim.arc.begin()) - 1;
+        const size_t next = k + 1 == rim.points.size() ? 0 : k + 1;
+        const double span = rim.arc[k + 1] - rim.arc[k];
+        const double t = span > 0 ? (s - rim.arc[k]) / span : 0.0;
+        return (1 - t) * rim.points[k] + t * rim.points[next];
+    }
+
+    // The arc length of the point of `rim` nearest x.
+    double rim_arc(const Rim& rim, const Vec3& x) const
+    {
+        double best = std::numeric_limits<double>::infinity(), arc = 0;
+        for (size_t k = 0; k < rim.points.size(); ++k) {
+            const Vec3& a = rim.points[k];
+            const Vec3& b = rim.points[k + 1 == rim.points.size() ? 0 : k + 1];
+            const Vec3 e = b - a;
+            const double t = norm2(e) > 0 ? std::clamp(dot(x - a, e) / norm2(e), 0.0, 1.0) : 0.0;
+            const double gap = distance(x, a + t * e);
+            if (gap < best) best = gap, arc = rim.arc[k] + t * (rim.arc[k + 1] - rim.arc[k]);
+        }
+        return arc;
+    }
+
+    // RemeshParams::relax_rims, twice in the last cycle: sweeps
+    // of moves of each rim node along its input rim, halfway toward the
+    // middle (by arc length) of its two rim neighbours. A move that would
+    // turn a triangle of the node's fan more than 30 degrees, or shrink it
+    // below a fifth of its area, is not made; the volume a move adds goes
+    // into lost_, which restore_volume gives back.
+    void relax_rims()
+    {
+        constexpr int kSweeps = 64;
+        constexpr double kOmega = 0.5;
+        const double cos_turn = std::cos(30.0 * std::numbers::pi / 180);
+        rim_of_.resize(mesh_.vertex_capacity(), -1);
+        arc_of_.resize(mesh_.vertex_capacity(), 0.0);
+        const auto arc_at = [&](int32_t v, int32_t rim) {
+            // A node a bisection put on the rim, or a merge moved: where its rim is nearest.
+            if (rim_of_[v] != rim) rim_of_[v] = rim, arc_of_[v] = rim_arc(rims_[rim], mesh_.points[v]);
+            return arc_of_[v];
+        };
+        std::vector<int32_t> nodes;
+        for (int32_t v = 0; v < mesh_.vertex_capacity(); ++v)
+            if (mesh_.vertex_alive(v) && mesh_.border_edges(v) == 2 && rim_out(v) >= 0) nodes.push_back(v);
+        for (int sweep = 0; sweep < kSweeps; ++sweep)
+            for (const int32_t v : nodes) {
+                if (rim_of_[v] < 0) continue;
+                const int32_t out = rim_out(v), in = rim_in(v);
+                if (out < 0 || in < 0) continue;
+                const int32_t rim = rim_of_[v], next = mesh_.to(out), prev = mesh_.from(in);
+                if (next == prev) continue;
+                if (rim_of_[next] < 0 && mesh_.border_edges(next) != 2) continue;
+                if (rim_of_[prev] < 0 && mesh_.border_edges(prev) != 2) continue;
+                const double length = rims_[rim].arc.back();
+                const double here = arc_at(v, rim);
+                const auto ahead = [&](double from, double to) {
+                    const double s = std::fmod(to - from, length);
+                    return s < 0 ? s + length : s;
+                };
+                const double to_next = ahead(here, arc_at(next, rim)), from_prev = ahead(arc_at(prev, rim), here);
+                if (!(to_next + from_prev < 0.5 * length)) continue; // not a neighbourhood of the rim
+                const double shift = kOmega * 0.5 * (to_next - from_prev);
+                const Vec3 x = rim_point(rims_[rim], here + shift);
+                bool sound = true;
+                const int32_t start = mesh_.outgoing(v);
+                int32_t h = start;
+                do {
+                    const Vec3& b = mesh_.points[mesh_.to(h)];
+                    const Vec3& c = mesh_.points[mesh_.opposite(h)];
+                    const Vec3 before = cross(b - mesh_.points[v], c - mesh_.points[v]);
+                    const Vec3 after = cross(b - x, c - x);
+                    const double nb = norm(before), na = norm(after);
+                    sound = na >= 0.2 * nb && dot(before, after) >= cos_turn * nb * na;
+                    h = mesh_.rotate(h);
+                } while (sound && h != start);
+                if (!sound) continue;
+                // The volume the move adds, given back with the swaps' (lost_).
+                Vec3 fan{};
+                h = start;
+                do {
+                    fan += cross(mesh_.points[mesh_.to(h)], mesh_.points[mesh_.opposite(h)]);
+                    h = mesh_.rotate(h);
+                } while (h != start);
+                lost_[v] -= dot(x - mesh_.points[v], fan) / 6;
+                mesh_.points[v] = x;
+                arc_of_[v] = std::fmod(here + shift + length, length);
+            }
+    }
+
     void mark_everything()
     {
         vertex_dirty_.assign(mesh_.vertex_capacity(), 0);
@@ -394,6 +580,9 @@ private:
     double max_damage_ = 0;
     std::vector<char> vertex_dirty_, face_dirty_;
     std::vector<int32_t> dirty_vertices_, dirty_faces_;
+    std::vector<Rim> rims_;         // RemeshParams::relax_rims
+    std::vector<int32_t> rim_of_;   // per vertex id: its rim in rims_, -1 for none (yet)
+    std::vector<double> arc_of_;    // per vertex id on a rim: its arc length along it
 };
 
 } // namespace

@@ -32,6 +32,17 @@ struct RemeshParams {
     // every point of its triangles on one plane), or the zero vector for a
     // curved patch (the wall, patch 0). Ids past the end are curved.
     std::vector<Vec3> patch_normals;
+    // In the last cycle (before its merges and after its bisections), even
+    // out the nodes along each rim of a flat patch (an opening's cap): each
+    // rim node moves along the input's rim (the polyline of its border
+    // edges as given, on the cap's plane and the wall) toward the middle of
+    // its two rim neighbours. Merges along a rim may only end on an input
+    // point and only where the chord stays close to the curve, which leaves
+    // short rim edges between long ones; the prism layers' columns of their
+    // nodes, which run across the cap, then close in on each other and the
+    // cap's fill makes needles there. The pipeline sets it for the prism
+    // layers only.
+    bool relax_rims = true;
     SizingParams sizing; // recomputes the stable d on the final surface (section 2.1); L_min, L_max required
 };
 

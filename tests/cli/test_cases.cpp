@@ -289,5 +289,32 @@ TEST(FinerSampleCase, TubeAtM20KeepsEveryFaceBelowSevereNonOrthogonality)
     EXPECT_GE(report["volume"]["quality_after_sliver_removal"]["min_dihedral_deg"].get<double>(), 10.0);
 }
 
+// The tube at M = 14 with the default prism layers. Its rims once kept a
+// short edge (0.37 mm beside 1.2 mm ones: a rim merge must end on an input
+// point and keep its chord near the curve); the layer columns of its two
+// nodes ran across the cap 0.14 mm apart, and the cap's fill made a needle
+// tet on them (6.6 degrees) that gave the prism layers up. The remeshing's
+// rim relaxation evens each rim along the input's.
+TEST(FinerSampleCase, TubeAtM14KeepsItsPrismLayers)
+{
+    const TempDir tmp;
+    const std::filesystem::path dir = tmp.path / "tube";
+    std::filesystem::create_directories(dir);
+    std::ifstream in("cases/tube/scalemesh.toml");
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::string at_14 = std::regex_replace(text, std::regex(R"((^|\n)M = 7 )"), "$1M = 14 ");
+    ASSERT_NE(at_14, text) << "no M = 7 line in cases/tube/scalemesh.toml";
+    at_14 = std::regex_replace(at_14, std::regex(R"((^|\n)surface = \[[^\]]*\])"), "$1surface = []");
+    std::ofstream(dir / "scalemesh.toml") << at_14;
+    const CommandResult r = run_scalemesh({"run", dir.string(), "-q", "--strict"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    std::ifstream report_in(dir / "report.json");
+    const nlohmann::json report = nlohmann::json::parse(report_in);
+    EXPECT_EQ(report["volume"]["layers_built"], "prisms") << report["warnings"].dump();
+    EXPECT_TRUE(report["warnings"].empty()) << report["warnings"].dump();
+    EXPECT_GE(report["openfoam"]["intact_prism_share"].get<double>(), 0.95);
+    EXPECT_GE(report["openfoam"]["tet_cells_min_dihedral_deg"].get<double>(), 10.0);
+}
+
 } // namespace
 } // namespace scalemesh

@@ -589,10 +589,12 @@ int64_t border_edge_count(const SurfaceMesh& mesh, int32_t a, int32_t b)
 struct CapFigures {
     int64_t rim_before[3] = {}, rim[3] = {};
     double area_before[3] = {}, area[3] = {};
+    double shortest_rim_edge[3] = {}, longest_rim_edge[3] = {}; // mm, after
+    double rim_inside = 0; // mm, the furthest a rim node lies inside the cylinder
     int64_t wall_around = 0;
 };
 
-CapFigures remesh_capped_cylinder(double radius)
+CapFigures remesh_capped_cylinder(double radius, bool relax_rims = true)
 {
     const double length = 20, h = 0.5, d = 6;
     const SurfaceMesh input = capped_cylinder(radius, length, h);
@@ -606,6 +608,7 @@ CapFigures remesh_capped_cylinder(double radius)
     params.sizing.L_max = 20;
     params.max_displacement = h / 3;
     params.patch_normals = {Vec3{}, Vec3{0, 0, -1}, Vec3{0, 0, 1}};
+    params.relax_rims = relax_rims;
     const RemeshResult r = remesh_to_feature_size(input, std::vector<double>(input.points.size(), d), params);
     const SurfaceFacts after = surface_facts(r.surface);
     EXPECT_TRUE(after.closed_manifold());
@@ -641,6 +644,24 @@ CapFigures remesh_capped_cylinder(double radius)
         figures.area[cap] = cap_area(r.surface, cap, true);
         figures.rim_before[cap] = border_edge_count(input, 0, cap);
         figures.rim[cap] = border_edge_count(r.surface, 0, cap);
+        figures.shortest_rim_edge[cap] = std::numeric_limits<double>::infinity();
+    }
+    {
+        std::map<std::pair<int32_t, int32_t>, std::vector<int32_t>> patches;
+        for (size_t f = 0; f < r.surface.triangles.size(); ++f)
+            for (int k = 0; k < 3; ++k) {
+                const int32_t u = r.surface.triangles[f][k], v = r.surface.triangles[f][(k + 1) % 3];
+                patches[{std::min(u, v), std::max(u, v)}].push_back(r.surface.triangle_patch[f]);
+            }
+        for (const auto& [edge, p] : patches) {
+            if (p.size() != 2 || (p[0] == 0) == (p[1] == 0)) continue;
+            const int32_t cap = std::max(p[0], p[1]);
+            const double length = distance(r.surface.points[edge.first], r.surface.points[edge.second]);
+            figures.shortest_rim_edge[cap] = std::min(figures.shortest_rim_edge[cap], length);
+            figures.longest_rim_edge[cap] = std::max(figures.longest_rim_edge[cap], length);
+            for (int32_t v : {edge.first, edge.second})
+                figures.rim_inside = std::max(figures.rim_inside, radius - std::hypot(r.surface.points[v].x, r.surface.points[v].y));
+        }
     }
     for (const auto& [a, b] : unique_edges(r.surface))
         figures.wall_around += (r.surface.points[a].z < 0.5 * length) != (r.surface.points[b].z < 0.5 * length);
@@ -649,6 +670,9 @@ CapFigures remesh_capped_cylinder(double radius)
     for (int32_t cap = 1; cap <= 2; ++cap)
         std::printf("  cap %d: rim edges %lld -> %lld, area %.4f -> %.4f mm^2\n", cap, (long long)figures.rim_before[cap],
                     (long long)figures.rim[cap], figures.area_before[cap], figures.area[cap]);
+    for (int32_t cap = 1; cap <= 2; ++cap)
+        std::printf("  cap %d (relax_rims %d): rim edges %.3f to %.3f mm, rim nodes up to %.4f mm inside\n", cap,
+                    int(relax_rims), figures.shortest_rim_edge[cap], figures.longest_rim_edge[cap], figures.rim_inside);
     return figures;
 }
 
@@ -687,6 +711,25 @@ TEST(RemeshPatches, FlatCapsOfANarrowTubeFollowTheWall)
         // A regular 10-gon keeps 93.5% of its circle's area.
         EXPECT_GT(f.area[cap], 0.935 * f.area_before[cap]) << "cap " << cap;
         EXPECT_LE(f.area[cap], f.area_before[cap] * (1 + 1e-12)) << "cap " << cap;
+    }
+}
+
+TEST(RemeshPatches, RimsAreEvenedAlongTheInputRim)
+{
+    for (const double radius : {3.0, 20.0}) {
+        const CapFigures relaxed = remesh_capped_cylinder(radius, true);
+        const CapFigures fixed = remesh_capped_cylinder(radius, false);
+        for (int cap = 1; cap <= 2; ++cap) {
+            EXPECT_GT(relaxed.shortest_rim_edge[cap], 0.5 * relaxed.longest_rim_edge[cap]) << radius << " cap " << cap;
+            // Without: the merges, which must end on an input point, leave
+            // rim edges of the input's 0.5 mm beside ones three times longer.
+            EXPECT_LT(fixed.shortest_rim_edge[cap], 0.5 * fixed.longest_rim_edge[cap]) << radius << " cap " << cap;
+        }
+        // The input's rim nodes are on the circle, rim_before[1] of them: a
+        // node on a chord between two of them lies at most the chord's
+        // sagitta inside.
+        const double sagitta = radius * (1 - std::cos(std::numbers::pi / double(relaxed.rim_before[1])));
+        EXPECT_LE(relaxed.rim_inside, sagitta * (1 + 1e-9)) << radius;
     }
 }
 
