@@ -229,6 +229,13 @@ struct MeshResult {
     std::vector<double> aspect_ratio;
     std::vector<std::int32_t> tet_layer;
 
+    // The layers the run built, as report.json's volume.layers_built:
+    // "prisms" (prism layers, the core meshed by Gmsh) or "delaunay" (the
+    // paper's layer points in one Delaunay triangulation). MeshOptions::layers,
+    // but for prism layers given up because their mesh missed a floor: then
+    // "delaunay", and report_json's volume.layer_fallback says why.
+    std::string layers_built;
+
     // The run behind the arrays: the stages' own results (the volume mesh
     // with its adjacency, the sizing fields, the layer columns, the openings'
     // caps, the stage times) and the options, checked. Shared by copies of

@@ -106,6 +106,7 @@ MeshResult to_result(const PipelineRun& run, const CaseConfig& config)
         if (name == "layer")
             for (double v : values) out.tet_layer.push_back(static_cast<int32_t>(v));
     }
+    out.layers_built = run.layers == LayerMode::prisms ? "prisms" : "delaunay";
     return out;
 }
 

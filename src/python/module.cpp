@@ -254,7 +254,8 @@ template <class T, class U = T> py::array_t<T> array_1d(const std::vector<U>& va
 // mapping, and the run behind them for the writers.
 struct PyMeshResult {
     py::dict items;                     // the arrays and values, by name
-    MeshResult run;                     // its arrays cleared (they are in `items`): MeshResult::run only
+    MeshResult run;                     // its arrays cleared (they are in `items`): MeshResult::run and
+                                        // layers_built only
     std::optional<std::string> report;  // report_json, made on first use
 };
 
@@ -312,6 +313,7 @@ PyMeshResult wrap(py::dict items, const MeshResult& mesh)
     PyMeshResult out;
     out.items = std::move(items);
     out.run.run = mesh.run;
+    out.run.layers_built = mesh.layers_built;
     return out;
 }
 
@@ -720,6 +722,10 @@ run behind the arrays (changing an array changes nothing they write).)");
             return py::module_::import("json").attr("loads")(report_text(r));
         }, R"(The run's report as a dict: what report.json of `scalemesh run` holds for a run that wrote
 no files (stages, surface facts, sizing, remeshing, volume quality, layers, openings, warnings).)")
+        .def_property_readonly("layers_built", [](const PyMeshResult& r) { return r.run.layers_built; },
+                               R"(The layers the run built, as report.json's volume.layers_built: "prisms" or
+"delaunay". The layers option, but for prism layers given up because their mesh missed a
+floor: then "delaunay", and report["volume"]["layer_fallback"] says why.)")
         .def("report_json", [](PyMeshResult& r) { return report_text(r); },
              "The report as report.json's JSON text.")
         .def("write_openfoam",

@@ -68,6 +68,9 @@ class MeshResult(Mapping[str, Any]):
     @property
     def report(self) -> dict[str, Any]:
         """report.json of `scalemesh run` for a run that wrote no files, as a dict."""
+    @property
+    def layers_built(self) -> Literal["prisms", "delaunay"]:
+        """The layers the run built: the layers option, or "delaunay" where prism layers were given up."""
     def report_json(self) -> str:
         """The report as JSON text."""
     def write_openfoam(

@@ -160,6 +160,7 @@ TEST(Api, MeshesAClosedSurfaceWithTheCaseFileDefaults)
     EXPECT_EQ(stages.front(), "import");
     EXPECT_EQ(stages.back(), "volume");
     EXPECT_EQ(m.patch_names, std::vector<std::string>{"wall"});
+    EXPECT_EQ(m.layers_built, "prisms"); // the default layers, built
     // Smoothing conserves the enclosed volume to round-off and remeshing
     // gives back what it takes (remeshing/volume_give_back.h): the boundary
     // triangles enclose the input's volume.
@@ -231,6 +232,8 @@ TEST(Api, PrismLayersAreWholePrisms)
     expect_valid_mesh(prisms);
     options.layers = "delaunay";
     const MeshResult delaunay = scalemesh::mesh_surface(sphere, options);
+    EXPECT_EQ(prisms.layers_built, "prisms");
+    EXPECT_EQ(delaunay.layers_built, "delaunay");
     const double wanted = 3.0 * static_cast<double>(prisms.boundary_count());
     const double whole = static_cast<double>(whole_layer_prisms(prisms)) / wanted;
     const double paper = static_cast<double>(whole_layer_prisms(delaunay)) / (3.0 * delaunay.boundary_count());

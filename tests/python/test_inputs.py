@@ -80,6 +80,14 @@ class TestMeshImageArray(unittest.TestCase):
         np.testing.assert_array_equal(result["points"], self.result["points"])
         np.testing.assert_array_equal(result["tets"], self.result["tets"])
 
+    def test_layers_built_says_which_layers_the_run_built(self):
+        self.assertEqual(self.result.layers_built, "prisms")  # the default layers, built
+        self.assertEqual(self.result.layers_built, self.result.report["volume"]["layers_built"])
+        with self.assertRaises(AttributeError):
+            self.result.layers_built = "delaunay"  # read-only
+        paper = scalemesh.mesh_image(self.vol, spacing=SPACING, origin=ORIGIN, threads=2, layers="delaunay")
+        self.assertEqual(paper.layers_built, "delaunay")
+
     def test_the_first_index_runs_along_x(self):
         points = self.result["points"]
         low, high = points.min(axis=0), points.max(axis=0)
