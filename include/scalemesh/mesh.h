@@ -242,10 +242,11 @@ struct MeshResult {
     // the result and never changed: the writers write the mesh as the run
     // made it, so changing the arrays above changes nothing they write (and
     // clearing them, to save memory, loses nothing they need). It holds the
-    // run's memory (the volume mesh again, its face adjacency and the
-    // stages' surfaces) until the last copy is gone; reset it when no writer
-    // will be called. Empty in a MeshResult the library did not make; the
-    // writers then throw InputError.
+    // run's memory (the volume mesh again, its face adjacency, the prism
+    // layers' OpenFOAM cells and the stages' surfaces) until the last copy
+    // is gone; reset it when no writer will be called. Empty in a
+    // MeshResult the library did not make; the writers then throw
+    // InputError.
     std::shared_ptr<const detail::RunState> run;
 
     std::size_t point_count() const { return points.size() / 3; }

@@ -809,8 +809,10 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
         // cell passes mend freely: thin layers over a wall that folds back
         // on itself, or at a large M.
         layering = true;
-        if (const std::string shortfall = prism_cells_shortfall(config, run); !shortfall.empty())
-            throw StageError("volume", "the prism layers' OpenFOAM cells would miss the case's floors: " + shortfall);
+        run.prism_cells = prism_layer_cells(config, run);
+        if (run.prism_cells)
+            if (const std::string shortfall = prism_cells_shortfall(config, *run.prism_cells); !shortfall.empty())
+                throw StageError("volume", "the prism layers' OpenFOAM cells would miss the case's floors: " + shortfall);
         layering = false;
         clock.done(summary.str());
         return run;
@@ -825,6 +827,7 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
         layering = false;
         run.layers = LayerMode::delaunay;
         run.layer_fallback = e.what();
+        run.prism_cells = nullptr;
         volume.layers = LayerMode::delaunay;
         volume.rim_columns.clear();
         d = run.sizing->d;

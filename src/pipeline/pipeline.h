@@ -15,12 +15,14 @@
 
 #include <functional>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 namespace scalemesh {
 
+struct FoamCells;  // pipeline/run_case.h
 struct VoxelArray; // importers/image_importer.h
 
 struct StageTime {
@@ -76,6 +78,10 @@ struct PipelineRun {
     // prism layers asked for could not be built (layer_fallback says why).
     LayerMode layers = LayerMode::delaunay;
     std::string layer_fallback;
+    // Prism layers to be written as prism cells ([output] openfoam and
+    // layer_prisms): the OpenFOAM cells of `volume` the volume stage judged
+    // them by (prism_layer_cells), which the writers write. Empty otherwise.
+    std::shared_ptr<const FoamCells> prism_cells;
     struct Refinement {
         int attempt;              // 1 for the first retry
         int64_t failing_nodes;    // surface nodes the volume stage named

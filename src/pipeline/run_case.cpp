@@ -294,11 +294,14 @@ FoamCells foam_cells(const CaseConfig& config, const PipelineRun& run, const Tet
     return out;
 }
 
-std::string prism_cells_shortfall(const CaseConfig& config, const PipelineRun& run)
+std::shared_ptr<const FoamCells> prism_layer_cells(const CaseConfig& config, const PipelineRun& run)
 {
-    if (!run.volume || run.layers != LayerMode::prisms || !config.openfoam || !config.layer_prisms) return "";
-    const TetMesh mesh = case_mesh(config, run);
-    const FoamCells foam = foam_cells(config, run, mesh);
+    if (!run.volume || run.layers != LayerMode::prisms || !config.openfoam || !config.layer_prisms) return nullptr;
+    return std::make_shared<const FoamCells>(foam_cells(config, run, case_mesh(config, run)));
+}
+
+std::string prism_cells_shortfall(const CaseConfig& config, const FoamCells& foam)
+{
     std::vector<std::string> missed = openfoam_check_warnings(foam.checks);
     for (std::string& w : cell_floor_warnings(config, *foam.tet_cells)) missed.push_back(std::move(w));
     std::string text;
@@ -809,18 +812,21 @@ CaseOutputs write_case_outputs(const CaseConfig& config, const PipelineRun& run,
             // degrees, too skew, or a face pyramid not positive from the
             // prism's centre as OpenFOAM computes it) is split back into its
             // tets, until there is none. What is left on single tets is
-            // warned of.
-            const FoamCells foam = foam_cells(config, run, mesh);
-            const LayerPrismCells& cells = foam.cells;
-            const OpenFoamCellChecks& checks = foam.checks;
+            // warned of. The volume stage made these cells for prism cells
+            // already, when it judged the prism layers by them.
+            const std::shared_ptr<const FoamCells> foam =
+                run.prism_cells && config.layer_prisms ? run.prism_cells
+                                                       : std::make_shared<const FoamCells>(foam_cells(config, run, mesh));
+            const LayerPrismCells& cells = foam->cells;
+            const OpenFoamCellChecks& checks = foam->checks;
             result.layer_prisms = cells.prisms;
             result.layer_prisms_refused = cells.refused;
             result.absorbed_tets = cells.absorbed;
             result.openfoam_checks = checks;
             for (const std::string& w : openfoam_check_warnings(checks)) result.warnings.push_back(w);
             if (prism_cells) {
-                result.tet_cells = foam.tet_cells;
-                for (const std::string& w : cell_floor_warnings(config, *foam.tet_cells)) result.warnings.push_back(w);
+                result.tet_cells = foam->tet_cells;
+                for (const std::string& w : cell_floor_warnings(config, *foam->tet_cells)) result.warnings.push_back(w);
             }
             const bool decompose = config.decompose > 1;
             PolyMeshFaces faces;

@@ -9,6 +9,7 @@
 #include "volume/layer_prisms.h"
 
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -101,11 +102,17 @@ struct FoamCells {
 };
 FoamCells foam_cells(const CaseConfig& config, const PipelineRun& run, const TetMesh& mesh);
 
-// With prism layers to be written as prism cells: the floors of the case
-// their cells would miss and the checkMesh failures they would have, as
-// the run's warnings word them ("; " between), empty when none (and for
-// other runs). The pipeline gives such prism layers up for the paper's.
-std::string prism_cells_shortfall(const CaseConfig& config, const PipelineRun& run);
+// With prism layers to be written as prism cells ([output] openfoam and
+// layer_prisms): the OpenFOAM cells of the run's volume mesh, as foam_cells
+// makes them; empty for other runs. The pipeline keeps them for the writers
+// (PipelineRun::prism_cells).
+std::shared_ptr<const FoamCells> prism_layer_cells(const CaseConfig& config, const PipelineRun& run);
+
+// The floors of the case the prism layers' cells `foam` would miss and the
+// checkMesh failures they would have, as the run's warnings word them ("; "
+// between), empty when none. The pipeline gives such prism layers up for
+// the paper's.
+std::string prism_cells_shortfall(const CaseConfig& config, const FoamCells& foam);
 
 // The layer prisms written as single cells, over the wall faces times the
 // layers that make prisms (layers.layermaking): 1 when every wall face
