@@ -5,7 +5,8 @@
 # the three (root only: the test fails, saying so, when not root), the
 # installed /usr/bin/scalemesh answers --help and writes a phantom, the
 # library is in the multiarch directory and python3 imports the module;
-# finally `dpkg -r` leaves the machine as it was.
+# finally `dpkg -r` leaves the machine as it was. A failing step removes
+# what the test installed and made as well (cleanup).
 #   cmake -DBUILD_DIR=... -DWORK_DIR=... -DLIBDIR=lib/<arch> [-DPACK_ONLY=ON] -P deb_test.cmake
 # PACK_ONLY: make and check the packages only, install nothing (no root).
 
@@ -21,10 +22,27 @@ if(NOT uid STREQUAL "0" AND NOT PACK_ONLY)
   message(FATAL_ERROR "deb_install needs root to run dpkg -i (uid here: ${uid}); run ctest as root, as CI does")
 endif()
 
+# What the test installs (set(installed ON) before dpkg -i, which may fail
+# with some of them unpacked) and makes (WORK_DIR) goes again, on failure
+# as on success.
+set(installed OFF)
+function(cleanup)
+  if(installed)
+    execute_process(COMMAND dpkg -r python3-scalemesh libscalemesh-dev scalemesh)
+  endif()
+  file(REMOVE_RECURSE "${WORK_DIR}")
+endfunction()
+
+# fail(text): the test fails, saying `text`, after cleanup.
+function(fail text)
+  cleanup()
+  message(FATAL_ERROR "${text}")
+endfunction()
+
 function(step name)
   execute_process(COMMAND ${ARGN} RESULT_VARIABLE code OUTPUT_VARIABLE out ERROR_VARIABLE err)
   if(NOT code EQUAL 0)
-    message(FATAL_ERROR "${name} failed (${code}):\n${out}\n${err}")
+    fail("${name} failed (${code}):\n${out}\n${err}")
   endif()
   message(STATUS "${name}: ok\n${out}")
   set(step_output "${out}" PARENT_SCOPE)
@@ -37,7 +55,7 @@ file(GLOB debs RELATIVE "${WORK_DIR}" "${WORK_DIR}/*.deb")
 list(SORT debs)
 list(LENGTH debs count)
 if(NOT count EQUAL 3)
-  message(FATAL_ERROR "cpack made ${count} .deb files in ${WORK_DIR}, not three: ${debs}")
+  fail("cpack made ${count} .deb files in ${WORK_DIR}, not three: ${debs}")
 endif()
 
 # check(package depends_regex file_regex...): the package's .deb, its name,
@@ -46,7 +64,7 @@ set(packages "")
 function(check package depends)
   file(GLOB deb "${WORK_DIR}/${package}_*.deb")
   if(NOT deb)
-    message(FATAL_ERROR "cpack made no ${package}_*.deb: ${debs}")
+    fail("cpack made no ${package}_*.deb: ${debs}")
   endif()
   step("dpkg-deb --field ${package}" dpkg-deb --field "${deb}" Package Depends)
   set(depends_field "")
@@ -54,16 +72,15 @@ function(check package depends)
     set(depends_field "${CMAKE_MATCH_1}")
   endif()
   if(NOT step_output MATCHES "Package: ${package}\n" OR NOT depends_field MATCHES "${depends}")
-    message(FATAL_ERROR "${package}: the control fields lack the name or a Depends matching '${depends}':\n"
-                        "${step_output}")
+    fail("${package}: the control fields lack the name or a Depends matching '${depends}':\n${step_output}")
   endif()
   execute_process(COMMAND dpkg-deb --contents "${deb}" OUTPUT_VARIABLE contents RESULT_VARIABLE code)
   if(NOT code EQUAL 0)
-    message(FATAL_ERROR "dpkg-deb --contents ${deb} failed (${code})")
+    fail("dpkg-deb --contents ${deb} failed (${code})")
   endif()
   foreach(file IN LISTS ARGN)
     if(NOT contents MATCHES " \\./usr/${file}( |\n)")
-      message(FATAL_ERROR "${package} holds no /usr/${file}:\n${contents}")
+      fail("${package} holds no /usr/${file}:\n${contents}")
     endif()
   endforeach()
   set(packages ${packages} "${deb}" PARENT_SCOPE)
@@ -76,28 +93,30 @@ check(libscalemesh-dev "^scalemesh \\(= [0-9.]+\\)$" "include/scalemesh/scalemes
 check(python3-scalemesh "^python3, python3-numpy, " "lib/python3/dist-packages/scalemesh\\.cpython-[^ ]*\\.so"
       "lib/python3/dist-packages/scalemesh\\.pyi")
 if(PACK_ONLY)
-  file(REMOVE_RECURSE "${WORK_DIR}")
+  cleanup()
   return()
 endif()
 
+set(installed ON)
 step("dpkg -i" dpkg -i ${packages})
 step("scalemesh --help" /usr/bin/scalemesh --help)
 if(NOT step_output MATCHES "Usage" OR NOT step_output MATCHES "run")
-  message(FATAL_ERROR "the installed scalemesh --help printed no usage:\n${step_output}")
+  fail("the installed scalemesh --help printed no usage:\n${step_output}")
 endif()
 step("scalemesh phantom" /usr/bin/scalemesh phantom sphere --voxel-size 2 -o "${WORK_DIR}/sphere.vdb")
 if(NOT EXISTS "${WORK_DIR}/sphere.vdb")
-  message(FATAL_ERROR "the installed scalemesh wrote no phantom")
+  fail("the installed scalemesh wrote no phantom")
 endif()
 step("ldconfig -p" /sbin/ldconfig -p)
 # With the merged /usr of Debian 12 the cache names /lib/... for /usr/lib/...
 if(NOT step_output MATCHES "libscalemesh\\.so\\.0 [^\n]*=> (/usr)?/${LIBDIR}/libscalemesh\\.so\\.0")
-  message(FATAL_ERROR "the loader does not know /usr/${LIBDIR}/libscalemesh.so.0")
+  fail("the loader does not know /usr/${LIBDIR}/libscalemesh.so.0")
 endif()
 # No ';' in the code: a CMake argument list would split it there.
 step("python3 -c 'import scalemesh'" /usr/bin/python3 -c "print(__import__('scalemesh').__file__)")
 if(NOT step_output MATCHES "^/usr/lib/python3/dist-packages/scalemesh")
-  message(FATAL_ERROR "python3 imported scalemesh from elsewhere: ${step_output}")
+  fail("python3 imported scalemesh from elsewhere: ${step_output}")
 endif()
 step("dpkg -r" dpkg -r python3-scalemesh libscalemesh-dev scalemesh)
-file(REMOVE_RECURSE "${WORK_DIR}")
+set(installed OFF)
+cleanup()
