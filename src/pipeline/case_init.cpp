@@ -5,6 +5,7 @@
 #include "importers/vdb_importer.h"
 #include "openings/open_ends.h"
 #include "pipeline/case_config.h"
+#include "pipeline/options_table.h"
 #include "pipeline/pipeline.h"
 
 #include <algorithm>
@@ -112,17 +113,8 @@ PipelineRun inspect(std::string text, const std::filesystem::path& dir, int64_t 
     return run_pipeline(config, {.sizing = false, .remesh = false, .volume = false, .max_memory = max_memory});
 }
 
-const char* kDefaults = R"(
-# Every other setting has its default; uncomment a line to change it
-# (docs/case-file.md has them all).
-
-[sizing]
-# K = 4.2               # anisotropy: surface edge length over layer thickness near the wall
-# M = 7                 # element layers across a cross-section
-# G = 0.85              # gradient limit of the feature size
-# L_min = "0.5 voxels"  # the narrowest diameter that still gets M layers across
-# L_max = "100 mm"      # the widest; default: the largest extent of the surface
-
+// The sections after [sizing].
+const char* kOtherDefaults = R"(
 [volume]
 # min_layer_coverage = 0.99   # floors of the run: --strict fails a mesh below them
 # min_aspect_ratio = 0.1
@@ -137,6 +129,28 @@ const char* kDefaults = R"(
 # viscosity = 3.3e-6    # m^2/s (blood)
 # inlet_speed = 0.1     # m/s, uniform over each inlet
 )";
+
+// The sections the case leaves at their defaults, commented out; the
+// meshing options' values are MeshOptions{}'s, where they are set.
+std::string default_sections()
+{
+    const MeshOptions defaults;
+    // "# key = value", its comment from column 24 on.
+    const auto line = [](const std::string& setting, const std::string& comment) {
+        std::string text = "# " + setting;
+        text.resize(std::max<size_t>(text.size() + 2, 24), ' ');
+        return text + "# " + comment + "\n";
+    };
+    const MeshLength& L_min = defaults.L_min;
+    return "\n# Every other setting has its default; uncomment a line to change it\n"
+           "# (docs/case-file.md has them all).\n\n[sizing]\n" +
+           line("K = " + number_text(defaults.K), "anisotropy: surface edge length over layer thickness near the wall") +
+           line("M = " + number_text(defaults.M), "element layers across a cross-section") +
+           line("G = " + number_text(defaults.G), "gradient limit of the feature size") +
+           line("L_min = \"" + number_text(L_min.value) + (L_min.voxels ? " voxels\"" : " mm\""),
+                "the narrowest diameter that still gets M layers across") +
+           line("L_max = \"100 mm\"", "the widest; default: the largest extent of the surface") + kOtherDefaults;
+}
 
 } // namespace
 
@@ -213,7 +227,7 @@ InitialCase initial_case(const std::filesystem::path& file, const std::filesyste
         openings = o.str();
     }
 
-    out.text = input.str() + openings + kDefaults;
+    out.text = input.str() + openings + default_sections();
     // The case as written must run: its input and openings are read and cut
     // once more; openings that fail are left commented out.
     try {
@@ -224,7 +238,7 @@ InitialCase initial_case(const std::filesystem::path& file, const std::filesyste
         std::istringstream lines(openings);
         for (std::string line; std::getline(lines, line);)
             commented += (line.empty() || line[0] == '#' ? line : "# " + line) + "\n";
-        out.text = input.str() + "\n# These openings could not be cut: " + e.what() + "\n" + commented + kDefaults;
+        out.text = input.str() + "\n# These openings could not be cut: " + e.what() + "\n" + commented + default_sections();
         out.notes.push_back(std::string("the openings are commented out: ") + e.what());
         inspect(out.text, dir, max_memory, path, absolute);
     }

@@ -6,9 +6,11 @@
 #include "importers/stl_importer.h"
 #include "importers/vdb_importer.h"
 #include "reliability/hostile_support.h"
+#include "scalemesh/mesh.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <toml++/toml.h>
 
 #include <fstream>
 #include <set>
@@ -238,6 +240,14 @@ TEST(Cli, InitWritesACaseThatRunsAsWritten)
     EXPECT_NE(text.find("name = \"inlet\"\ntype = \"inlet\"\nborder = \"z-\""), std::string::npos) << text;
     EXPECT_NE(text.find("name = \"outlet\"\ntype = \"outlet\"\nborder = \"z+\""), std::string::npos) << text;
     EXPECT_NE(r.err.find("border opening 'inlet' on the image's z- side"), std::string::npos) << r.err;
+    // The defaults it lists, commented out, are MeshOptions{}'s.
+    const scalemesh::MeshOptions defaults;
+    for (const auto& [key, value] : {std::pair{"K", defaults.K}, std::pair{"M", defaults.M}, std::pair{"G", defaults.G}}) {
+        const size_t at = text.find(std::string("\n# ") + key + " = ");
+        ASSERT_NE(at, std::string::npos) << key << "\n" << text;
+        const std::string line = text.substr(at + 3, text.find('\n', at + 1) - at - 3); // "K = 4.2  # ..."
+        EXPECT_EQ(toml::parse(line)[key].value<double>(), value) << line;
+    }
     r = run_scalemesh({"run", image_case.string(), "-q"});
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const nlohmann::json report = nlohmann::json::parse(read_text(image_case / "report.json"));
