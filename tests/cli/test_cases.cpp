@@ -262,6 +262,38 @@ TEST_P(SampleCase, RunsAndMeetsItsExpectedBounds)
 INSTANTIATE_TEST_SUITE_P(Cases, SampleCase, ::testing::ValuesIn(case_names()),
                          [](const auto& info) { return info.param; });
 
+// cases/tube run at another M, without its surface outputs, `output`
+// added to its [output] table and `volume` to its [volume] table (with
+// --strict: its floors must hold); its report.json. A null report after a
+// failure the test has recorded.
+nlohmann::json run_tube_at(int M, const std::string& output, const std::string& volume)
+{
+    const TempDir tmp;
+    const std::filesystem::path dir = tmp.path / "tube";
+    std::filesystem::create_directories(dir);
+    std::ifstream in("cases/tube/scalemesh.toml");
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::string at_M = std::regex_replace(text, std::regex(R"((^|\n)M = 7 )"), "$1M = " + std::to_string(M) + " ");
+    if (at_M == text) {
+        ADD_FAILURE() << "no M = 7 line in cases/tube/scalemesh.toml";
+        return {};
+    }
+    at_M = std::regex_replace(at_M, std::regex(R"((^|\n)surface = \[[^\]]*\])"), "$1surface = []\n" + output);
+    const std::string with_volume = std::regex_replace(at_M, std::regex(R"((^|\n)\[volume\]\n)"), "$1[volume]\n" + volume);
+    if (!volume.empty() && with_volume == at_M) {
+        ADD_FAILURE() << "no [volume] table in cases/tube/scalemesh.toml";
+        return {};
+    }
+    std::ofstream(dir / "scalemesh.toml") << with_volume;
+    const CommandResult r = run_scalemesh({"run", dir.string(), "-q", "--strict"});
+    if (r.exit_code != 0) {
+        ADD_FAILURE() << "M = " << M << ": exit code " << r.exit_code << "\n" << r.err;
+        return {};
+    }
+    std::ifstream report_in(dir / "report.json");
+    return nlohmann::json::parse(report_in);
+}
+
 // The tube at M = 20 with the paper's layers has a face whose two tets are
 // all surface nodes, beyond 70 degrees after the flips and moves (70.14): the
 // non-orthogonality pass's last resort splits an interior edge of one of
@@ -269,21 +301,9 @@ INSTANTIATE_TEST_SUITE_P(Cases, SampleCase, ::testing::ValuesIn(case_names()),
 // counts as severe.
 TEST(FinerSampleCase, TubeAtM20KeepsEveryFaceBelowSevereNonOrthogonality)
 {
-    const TempDir tmp;
-    const std::filesystem::path dir = tmp.path / "tube";
-    std::filesystem::create_directories(dir);
-    std::ifstream in("cases/tube/scalemesh.toml");
-    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    std::string at_20 = std::regex_replace(text, std::regex(R"((^|\n)M = 7 )"), "$1M = 20 ");
-    ASSERT_NE(at_20, text) << "no M = 7 line in cases/tube/scalemesh.toml";
-    at_20 = std::regex_replace(at_20, std::regex(R"((^|\n)surface = \[[^\]]*\])"), "$1surface = []\nopenfoam = false");
-    at_20 = std::regex_replace(at_20, std::regex(R"((^|\n)\[volume\]\n)"), "$1[volume]\nlayers = \"delaunay\"\n");
-    ASSERT_NE(at_20.find("layers = \"delaunay\""), std::string::npos) << "no [volume] table in cases/tube/scalemesh.toml";
-    std::ofstream(dir / "scalemesh.toml") << at_20;
-    const CommandResult r = run_scalemesh({"run", dir.string(), "-q", "--strict"});
-    ASSERT_EQ(r.exit_code, 0) << r.err;
-    std::ifstream report_in(dir / "report.json");
-    const nlohmann::json report = nlohmann::json::parse(report_in);
+    const nlohmann::json report = run_tube_at(20, "openfoam = false\n", "layers = \"delaunay\"\n");
+    ASSERT_FALSE(report.is_null());
+    EXPECT_EQ(report["volume"]["layers_built"], "delaunay");
     EXPECT_LT(report["volume"]["max_non_orthogonality_deg"].get<double>(), 70.0);
     EXPECT_TRUE(report["warnings"].empty()) << report["warnings"].dump();
     EXPECT_GE(report["volume"]["quality_after_sliver_removal"]["min_dihedral_deg"].get<double>(), 10.0);
@@ -297,19 +317,8 @@ TEST(FinerSampleCase, TubeAtM20KeepsEveryFaceBelowSevereNonOrthogonality)
 // rim relaxation evens each rim along the input's.
 TEST(FinerSampleCase, TubeAtM14KeepsItsPrismLayers)
 {
-    const TempDir tmp;
-    const std::filesystem::path dir = tmp.path / "tube";
-    std::filesystem::create_directories(dir);
-    std::ifstream in("cases/tube/scalemesh.toml");
-    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    std::string at_14 = std::regex_replace(text, std::regex(R"((^|\n)M = 7 )"), "$1M = 14 ");
-    ASSERT_NE(at_14, text) << "no M = 7 line in cases/tube/scalemesh.toml";
-    at_14 = std::regex_replace(at_14, std::regex(R"((^|\n)surface = \[[^\]]*\])"), "$1surface = []");
-    std::ofstream(dir / "scalemesh.toml") << at_14;
-    const CommandResult r = run_scalemesh({"run", dir.string(), "-q", "--strict"});
-    ASSERT_EQ(r.exit_code, 0) << r.err;
-    std::ifstream report_in(dir / "report.json");
-    const nlohmann::json report = nlohmann::json::parse(report_in);
+    const nlohmann::json report = run_tube_at(14, "", "");
+    ASSERT_FALSE(report.is_null());
     EXPECT_EQ(report["volume"]["layers_built"], "prisms") << report["warnings"].dump();
     EXPECT_TRUE(report["warnings"].empty()) << report["warnings"].dump();
     EXPECT_GE(report["openfoam"]["intact_prism_share"].get<double>(), 0.95);
