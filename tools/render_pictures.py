@@ -198,7 +198,7 @@ def main():
 
         # The inlet: its cap at y = 175 mm (OPENINGS[0]), normal +y; the last 10 mm of the
         # vessel, seen from outside the cap.
-        near_inlet = tet_centres[:, 1] > 175.0 - 10.0
+        near_inlet = tet_centres[:, 1] > OPENINGS[0][2][1] - 10.0
         show(points, tets, layer, near_inlet, layers_owed, directory)
         set_view((65, 0, 20), (900, 700), scale=0.95)
         render(os.path.join(args.out, "aorta-cap.png"))

@@ -14,6 +14,7 @@
 #include <numbers>
 #include <string>
 #include <tuple>
+#include <unordered_map>
 #include <utility>
 
 namespace scalemesh {
@@ -429,6 +430,7 @@ private:
         const double length = rim.arc.back();
         s = std::fmod(s, length);
         if (s < 0) s += length;
+        if (!(s < length)) s = 0; // -1e-16 + length rounds to length
         const size_t k = static_cast<size_t>(std::upper_bound(rim.arc.begin(), rim.arc.end(), s) - rim.arc.begin()) - 1;
         const size_t next = k + 1 == rim.points.size() ? 0 : k + 1;
         const double span = rim.arc[k + 1] - rim.arc[k];
@@ -446,32 +448,56 @@ private:
             const Vec3 e = b - a;
             const double t = norm2(e) > 0 ? std::clamp(dot(x - a, e) / norm2(e), 0.0, 1.0) : 0.0;
             const double gap = distance(x, a + t * e);
-            if (gap < best) best = gap, arc = rim.arc[k] + t * (rim.arc[k + 1] - rim.arc[k]);
+            if (gap < best) {
+                best = gap;
+                arc = rim.arc[k] + t * (rim.arc[k + 1] - rim.arc[k]);
+            }
         }
         return arc;
     }
 
-    // RemeshParams::relax_rims, twice in the last cycle: sweeps
-    // of moves of each rim node along its input rim, halfway toward the
-    // middle (by arc length) of its two rim neighbours. A move that would
-    // turn a triangle of the node's fan more than 30 degrees, or shrink it
-    // below a fifth of its area, is not made; the volume a move adds goes
-    // into lost_, which restore_volume gives back.
+    // RemeshParams::relax_rims, twice in the last cycle: sweeps of moves of
+    // each rim node along its input rim, halfway (kOmega) toward the middle
+    // (by arc length) of its two rim neighbours; 64 sweeps spread a run of
+    // short rim edges along a rim of a few dozen nodes. A move is not made
+    // where an edge of the node would grow beyond t (at the smaller d of its
+    // ends) unless it already was, or where a triangle of its fan would turn
+    // more than 30 degrees from, or keep less than a fifth of the area of,
+    // what it was before the sweeps (a sliver along the rim; the last
+    // cycle's swaps do not follow the second call). The volume a move adds
+    // goes into lost_, which restore_volume gives back.
     void relax_rims()
     {
         constexpr int kSweeps = 64;
         constexpr double kOmega = 0.5;
         const double cos_turn = std::cos(30.0 * std::numbers::pi / 180);
+        constexpr double kMinArea = 0.2;
         rim_of_.resize(mesh_.vertex_capacity(), -1);
         arc_of_.resize(mesh_.vertex_capacity(), 0.0);
+        // A node a bisection put on the rim: where its rim is nearest.
         const auto arc_at = [&](int32_t v, int32_t rim) {
-            // A node a bisection put on the rim, or a merge moved: where its rim is nearest.
-            if (rim_of_[v] != rim) rim_of_[v] = rim, arc_of_[v] = rim_arc(rims_[rim], mesh_.points[v]);
+            if (rim_of_[v] != rim) {
+                rim_of_[v] = rim;
+                arc_of_[v] = rim_arc(rims_[rim], mesh_.points[v]);
+            }
             return arc_of_[v];
         };
         std::vector<int32_t> nodes;
         for (int32_t v = 0; v < mesh_.vertex_capacity(); ++v)
             if (mesh_.vertex_alive(v) && mesh_.border_edges(v) == 2 && rim_out(v) >= 0) nodes.push_back(v);
+        // The area vectors of the rim nodes' fans before the sweeps.
+        std::unordered_map<int32_t, Vec3> area_before;
+        for (const int32_t v : nodes) {
+            const int32_t start = mesh_.outgoing(v);
+            int32_t h = start;
+            do {
+                const int32_t f = HalfedgeMesh::face(h);
+                const Vec3 &a = mesh_.points[mesh_.from(3 * f)], &b = mesh_.points[mesh_.from(3 * f + 1)],
+                           &c = mesh_.points[mesh_.from(3 * f + 2)];
+                area_before.emplace(f, cross(b - a, c - a));
+                h = mesh_.rotate(h);
+            } while (h != start);
+        }
         for (int sweep = 0; sweep < kSweeps; ++sweep)
             for (const int32_t v : nodes) {
                 if (rim_of_[v] < 0) continue;
@@ -495,12 +521,16 @@ private:
                 const int32_t start = mesh_.outgoing(v);
                 int32_t h = start;
                 do {
-                    const Vec3& b = mesh_.points[mesh_.to(h)];
+                    const int32_t u = mesh_.to(h);
+                    const double limit = criteria_.target(std::min(d_[v], d_[u]));
+                    const double was = distance(mesh_.points[v], mesh_.points[u]);
+                    const Vec3& b = mesh_.points[u];
                     const Vec3& c = mesh_.points[mesh_.opposite(h)];
-                    const Vec3 before = cross(b - mesh_.points[v], c - mesh_.points[v]);
+                    const Vec3& before = area_before.at(HalfedgeMesh::face(h));
                     const Vec3 after = cross(b - x, c - x);
                     const double nb = norm(before), na = norm(after);
-                    sound = na >= 0.2 * nb && dot(before, after) >= cos_turn * nb * na;
+                    sound = (distance(x, b) <= std::max(limit, was)) && na >= kMinArea * nb &&
+                            dot(before, after) >= cos_turn * nb * na;
                     h = mesh_.rotate(h);
                 } while (sound && h != start);
                 if (!sound) continue;

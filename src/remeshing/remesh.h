@@ -74,6 +74,8 @@ struct RemeshResult {
 //     bisect_long_edges (Algorithm 2);
 //     smooth_volume_conserving(smoothing_sweeps, smoothing_omega, max_displacement);
 //   }
+// with relax_rims, the last cycle's rims evened before its merges and after
+// its bisections (the volume it moves given back).
 // then compute_feature_size on the result with params.sizing.
 //
 // `d` is the feature size (mm) per input point (compute_feature_size(...).d);
@@ -105,7 +107,11 @@ struct RemeshResult {
 // between exactly two patches, one of them flat, with exactly two border
 // edges) may merge into the neighbour along one of its border edges when
 // that neighbour is an input point, which stays put: the rim keeps to its
-// input polyline and to the cap's plane. The usual tests apply to the
+// input polyline and to the cap's plane (with relax_rims, the last cycle
+// slides rim nodes along that polyline, each move made only where no edge
+// of the node grows beyond t and no triangle of its fan turns more than 30
+// degrees or keeps less than a fifth of its area, against the fan before
+// the sweeps). The usual tests apply to the
 // triangles on both sides, the fold test against each side's own fan
 // normal, and the damage also counts the sagitta of the arc through the rim
 // node and its two rim neighbours over the chord that replaces them.
@@ -122,7 +128,8 @@ struct RemeshResult {
 // patch; points of flat patches stay on their planes to round-off; every
 // accepted merge and swap has damage below t/30 at its node; no edge is
 // longer than t at the smaller d of its ends after the last bisection (the
-// last smoothing then moves nodes a little); with conserve_volume the
+// rims' relaxation keeps that; the last smoothing then moves nodes a
+// little); with conserve_volume the
 // enclosed volume is the input's to round-off. Deterministic for a given
 // input.
 //
