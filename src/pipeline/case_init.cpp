@@ -113,33 +113,24 @@ PipelineRun inspect(std::string text, const std::filesystem::path& dir, int64_t 
     return run_pipeline(config, {.sizing = false, .remesh = false, .volume = false, .max_memory = max_memory});
 }
 
-// The sections after [sizing].
-const char* kOtherDefaults = R"(
-[volume]
-# min_layer_coverage = 0.99   # floors of the run: --strict fails a mesh below them
-# min_aspect_ratio = 0.1
-# min_dihedral_deg = 10
-
-[output]
-# surface = ["surface.msh", "surface.vtk"]
-# volume = ["mesh.msh"]
-# openfoam = true       # constant/polyMesh, system/, 0/ and Allrun
-
-[flow]
-# viscosity = 3.3e-6    # m^2/s (blood)
-# inlet_speed = 0.1     # m/s, uniform over each inlet
-)";
-
-// The sections the case leaves at their defaults, commented out; the
-// meshing options' values are MeshOptions{}'s, where they are set.
+// The sections the case leaves at their defaults, commented out, with the
+// values the case file reader takes without them: MeshOptions{}'s for the
+// meshing options, CaseConfig{}'s for the floors, outputs and flow.
 std::string default_sections()
 {
     const MeshOptions defaults;
-    // "# key = value", its comment from column 24 on.
-    const auto line = [](const std::string& setting, const std::string& comment) {
+    const CaseConfig config;
+    // "# key = value", its comment (if any) from `column` on.
+    const auto line = [](const std::string& setting, const std::string& comment = "", size_t column = 24) {
         std::string text = "# " + setting;
-        text.resize(std::max<size_t>(text.size() + 2, 24), ' ');
+        if (comment.empty()) return text + "\n";
+        text.resize(std::max(text.size() + 2, column), ' ');
         return text + "# " + comment + "\n";
+    };
+    const auto list = [](const std::vector<std::string>& names) {
+        std::string text;
+        for (const std::string& name : names) text += (text.empty() ? "" : ", ") + toml_string(name);
+        return "[" + text + "]";
     };
     const MeshLength& L_min = defaults.L_min;
     return "\n# Every other setting has its default; uncomment a line to change it\n"
@@ -149,7 +140,16 @@ std::string default_sections()
            line("G = " + number_text(defaults.G), "gradient limit of the feature size") +
            line("L_min = \"" + number_text(L_min.value) + (L_min.voxels ? " voxels\"" : " mm\""),
                 "the narrowest diameter that still gets M layers across") +
-           line("L_max = \"100 mm\"", "the widest; default: the largest extent of the surface") + kOtherDefaults;
+           line("L_max = \"100 mm\"", "the widest; default: the largest extent of the surface") + "\n[volume]\n" +
+           line("min_layer_coverage = " + number_text(config.min_layer_coverage),
+                "floors of the run: --strict fails a mesh below them", 30) +
+           line("min_aspect_ratio = " + number_text(config.min_aspect_ratio)) +
+           line("min_dihedral_deg = " + number_text(config.min_dihedral_deg)) + "\n[output]\n" +
+           line("surface = " + list(config.surface_outputs)) + line("volume = " + list(config.volume_outputs)) +
+           line(std::string("openfoam = ") + (config.openfoam ? "true" : "false"),
+                "constant/polyMesh, system/, 0/ and Allrun") +
+           "\n[flow]\n" + line("viscosity = " + number_text(config.viscosity), "m^2/s (blood)") +
+           line("inlet_speed = " + number_text(config.inlet_speed), "m/s, uniform over each inlet");
 }
 
 } // namespace
