@@ -108,10 +108,9 @@ struct RemeshResult {
 // edges) may merge into the neighbour along one of its border edges when
 // that neighbour is an input point, which stays put: the rim keeps to its
 // input polyline and to the cap's plane (with relax_rims, the last cycle
-// slides rim nodes along that polyline, each move made only where no edge
-// of the node grows beyond t and no triangle of its fan turns more than 30
-// degrees or keeps less than a fifth of its area, against the fan before
-// the sweeps). The usual tests apply to the
+// slides rim nodes along that polyline, each move made only where no
+// triangle of its fan turns more than 30 degrees or keeps less than a
+// fifth of its area). The usual tests apply to the
 // triangles on both sides, the fold test against each side's own fan
 // normal, and the damage also counts the sagitta of the arc through the rim
 // node and its two rim neighbours over the chord that replaces them.
@@ -127,9 +126,9 @@ struct RemeshResult {
 // Euler characteristic and component count, and every face on its input
 // patch; points of flat patches stay on their planes to round-off; every
 // accepted merge and swap has damage below t/30 at its node; no edge is
-// longer than t at the smaller d of its ends after the last bisection (the
-// rims' relaxation keeps that; the last smoothing then moves nodes a
-// little); with conserve_volume the
+// longer than t at the smaller d of its ends after the last bisection (but
+// next to a rim node the rims' relaxation moved, whose edges it may
+// lengthen; the last smoothing then moves nodes a little); with conserve_volume the
 // enclosed volume is the input's to round-off. Deterministic for a given
 // input.
 //
