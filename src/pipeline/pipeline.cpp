@@ -731,6 +731,10 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
     for (int attempt = 0;; ++attempt) try {
         {
             StageClock clock(run, listener, attempt == 0 ? "remeshing" : "remeshing (retry " + std::to_string(attempt) + ")");
+            // Evened rims for the prism layers' columns across the caps (the
+            // paper's layers, built on the same cap by Delaunay insertion,
+            // keep the remeshing as it was).
+            remesh.relax_rims = run.layers == LayerMode::prisms;
             run.remeshed = remesh_to_feature_size(run.surface, d, remesh);
             // The remeshed surface is checked as the input was, before and
             // after its caps are rebuilt: a crossing would give a volume

@@ -41,10 +41,13 @@ struct RemeshParams {
     // short rim edges between long ones; the prism layers' columns of their
     // nodes, which run across the cap, then close in on each other and the
     // cap's fill makes needles there (the tube at M = 14 gives its prisms up
-    // for one). Off, and the pipeline leaves it off: with it, the bend of
+    // for one). The pipeline sets it for the prism layers only (the paper's
+    // layers, built on the same cap by Delaunay insertion, keep the
+    // remeshing as it was). With it, the bend of
     // validation/curved_validation.py at M = 28 made Gmsh's boundary
     // recovery of the prism layers' core crash (a segmentation fault in
-    // TetGen's flip31, Gmsh 4.8), and bounding its moves further gave the
+    // TetGen's flip31, Gmsh 4.8), which the core's child process turns into
+    // the paper's layers (core_mesh.h); bounding the moves further gave the
     // prisms up on the multiscale study's stepped tube.
     bool relax_rims = false;
     SizingParams sizing; // recomputes the stable d on the final surface (section 2.1); L_min, L_max required

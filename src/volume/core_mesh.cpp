@@ -1,5 +1,6 @@
 #include "volume/core_mesh.h"
 
+#include "core/child_process.h"
 #include "core/errors.h"
 #include "gmsh_io/gmsh_session.h"
 
@@ -7,6 +8,8 @@
 
 #include <algorithm>
 #include <array>
+#include <cstring>
+#include <stdexcept>
 #include <unordered_map>
 #include <string>
 #include <utility>
@@ -147,12 +150,70 @@ std::string last_error()
     return error;
 }
 
-} // namespace
+// What Gmsh made of the core: the points it meshed with beyond the
+// boundary's (the embedded ones first, in their order, then those it added),
+// its tets over the boundary's points and these, and the last error it
+// logged (empty when none).
+struct GmshCore {
+    std::vector<Vec3> points;
+    std::vector<Tet> tets;
+    std::string last_error;
+};
 
-TetMesh mesh_core(const SurfaceMesh& boundary, const std::vector<Vec3>& inside)
+template <class T>
+void append_array(std::string& bytes, const std::vector<T>& values)
+{
+    const uint64_t count = values.size();
+    bytes.append(reinterpret_cast<const char*>(&count), sizeof count);
+    bytes.append(reinterpret_cast<const char*>(values.data()), count * sizeof(T));
+}
+
+template <class T>
+std::vector<T> read_array(const std::string& bytes, size_t& at)
+{
+    uint64_t count = 0;
+    if (bytes.size() - at < sizeof count) throw StageError("volume", "the core's process answered short");
+    std::memcpy(&count, bytes.data() + at, sizeof count);
+    at += sizeof count;
+    if ((bytes.size() - at) / sizeof(T) < count) throw StageError("volume", "the core's process answered short");
+    std::vector<T> values(count);
+    std::memcpy(values.data(), bytes.data() + at, count * sizeof(T));
+    at += count * sizeof(T);
+    return values;
+}
+
+std::string encode(const GmshCore& core)
+{
+    std::string bytes;
+    append_array(bytes, core.points);
+    append_array(bytes, core.tets);
+    append_array(bytes, std::vector<char>(core.last_error.begin(), core.last_error.end()));
+    return bytes;
+}
+
+GmshCore decode(const std::string& bytes)
+{
+    size_t at = 0;
+    GmshCore core;
+    core.points = read_array<Vec3>(bytes, at);
+    core.tets = read_array<Tet>(bytes, at);
+    const std::vector<char> error = read_array<char>(bytes, at);
+    core.last_error.assign(error.begin(), error.end());
+    return core;
+}
+
+// A fault of Gmsh's core found here, its message whole.
+struct CoreError : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
+
+// Gmsh's tets for the region `boundary` encloses, with the points `inside`
+// embedded: the work of mesh_core's child process, which sets the session's
+// options and makes its scratch model there. Throws std::runtime_error (a
+// CoreError, or what Gmsh reported).
+GmshCore gmsh_core(GmshSession& session, const SurfaceMesh& boundary, const std::vector<Vec3>& inside)
 {
     const size_t nb = boundary.points.size();
-    GmshSession session;
     // An error Gmsh meets throws (caught below, and named) instead of ending
     // the process, whatever a host's session had set.
     session.set_option("General.AbortOnError", 3);
@@ -196,8 +257,6 @@ TetMesh mesh_core(const SurfaceMesh& boundary, const std::vector<Vec3>& inside)
 
     TetMesh mesh;
     mesh.points = boundary.points;
-    mesh.boundary_faces = boundary.triangles;
-    mesh.boundary_patch.assign(boundary.triangles.size(), 0);
     try {
         gmsh::logger::start();
         // One discrete surface per component of the boundary, all sharing
@@ -241,7 +300,7 @@ TetMesh mesh_core(const SurfaceMesh& boundary, const std::vector<Vec3>& inside)
                 if (volume6[o] > 0 && encloses(boundary, component, o, corner[c]) &&
                     (around < 0 || volume6[o] < volume6[around]))
                     around = o;
-            if (around < 0) throw StageError("volume", "the core's boundary has a cavity outside every region");
+            if (around < 0) throw CoreError("the core's boundary has a cavity outside every region");
             loops[around].push_back(gmsh::model::geo::addSurfaceLoop({surfaces[c]}));
         }
         for (int32_t c = 0; c < count; ++c)
@@ -303,7 +362,7 @@ TetMesh mesh_core(const SurfaceMesh& boundary, const std::vector<Vec3>& inside)
             Tet tet;
             for (int k = 0; k < 4; ++k) {
                 const auto it = id_of_tag.find(corners[4 * e + k]);
-                if (it == id_of_tag.end()) throw StageError("volume", "Gmsh's core has a tet on an unknown node");
+                if (it == id_of_tag.end()) throw CoreError("Gmsh's core has a tet on an unknown node");
                 tet[k] = it->second;
             }
             const Vec3 &a = mesh.points[tet[0]], &b = mesh.points[tet[1]], &c = mesh.points[tet[2]],
@@ -313,12 +372,45 @@ TetMesh mesh_core(const SurfaceMesh& boundary, const std::vector<Vec3>& inside)
         }
         gmsh::logger::stop();
     } catch (const std::string& message) {
-        throw StageError("volume", "Gmsh could not mesh the core inside the prism layers: " + message);
-    } catch (const StageError&) {
+        throw std::runtime_error("Gmsh could not mesh the core inside the prism layers: " + message);
+    } catch (const CoreError&) {
         throw;
     } catch (...) {
-        throw StageError("volume", "Gmsh could not mesh the core inside the prism layers: " + last_error());
+        throw std::runtime_error("Gmsh could not mesh the core inside the prism layers: " + last_error());
     }
+    GmshCore core;
+    core.points.assign(mesh.points.begin() + static_cast<std::ptrdiff_t>(nb), mesh.points.end());
+    core.tets = std::move(mesh.tets);
+    core.last_error = last_error();
+    return core;
+}
+
+} // namespace
+
+TetMesh mesh_core(const SurfaceMesh& boundary, const std::vector<Vec3>& inside)
+{
+    const size_t nb = boundary.points.size();
+    // Gmsh works in a child process: a crash inside it (its boundary
+    // recovery has ended in a segmentation fault, in TetGen's flip31 on
+    // Gmsh 4.8) is then a StageError, after which the pipeline builds the
+    // paper's layers, not the end of the run. The session is opened here,
+    // so that a host's is adopted and Gmsh is held for the call; what the
+    // child does to Gmsh's state stays in the child.
+    GmshSession session;
+    GmshCore core;
+    try {
+        core = decode(run_in_child_process([&] { return encode(gmsh_core(session, boundary, inside)); }));
+    } catch (const ChildProcessError& e) {
+        if (e.signal() == 0 && e.exit_status() == 0) throw StageError("volume", e.what());
+        throw StageError("volume", std::string("Gmsh failed meshing the core inside the prism layers: its process ") +
+                                       e.what());
+    }
+    TetMesh mesh;
+    mesh.points = boundary.points;
+    mesh.points.insert(mesh.points.end(), core.points.begin(), core.points.end());
+    mesh.tets = std::move(core.tets);
+    mesh.boundary_faces = boundary.triangles;
+    mesh.boundary_patch.assign(boundary.triangles.size(), 0);
     // The boundary recovery keeps the tets inside a cavity's surface (the
     // hull's are carved away): only the region's are kept.
     TetFaceAdjacency adjacency = tet_face_adjacency(mesh);
@@ -340,7 +432,7 @@ TetMesh mesh_core(const SurfaceMesh& boundary, const std::vector<Vec3>& inside)
         for (int32_t& v : t) v = renumber[v];
     if (mesh.tets.empty())
         throw StageError("volume", "Gmsh made no tets in the core inside the prism layers" +
-                                       (last_error().empty() ? std::string() : ": " + last_error()));
+                                       (core.last_error.empty() ? std::string() : ": " + core.last_error));
     // Every boundary triangle a face of exactly one tet, every other face of two.
     const TetMeshFacts facts = tet_mesh_facts(mesh, adjacency);
     if (facts.nonpositive_tets != 0 || !facts.boundary_matches)

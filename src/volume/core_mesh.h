@@ -23,7 +23,9 @@ namespace scalemesh {
 // mesh.boundary_faces == boundary.triangles, every tet is positively
 // oriented and every boundary triangle is a face of exactly one tet.
 // Throws StageError naming what Gmsh reported when it cannot mesh the
-// region or changes its boundary.
+// region or changes its boundary. Gmsh runs in a child process of its own
+// (core/child_process.h): a crash inside it is a StageError too, saying how
+// the process ended.
 //
 // Runs in a GmshSession (gmsh_io/gmsh_session.h): one of its own, or
 // inside an open one (the host's, adopted by mesh_gmsh_model), on a scratch

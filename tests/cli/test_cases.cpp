@@ -309,5 +309,21 @@ TEST(FinerSampleCase, TubeAtM20KeepsEveryFaceBelowSevereNonOrthogonality)
     EXPECT_GE(report["volume"]["quality_after_sliver_removal"]["min_dihedral_deg"].get<double>(), 10.0);
 }
 
+// The tube at M = 14 with the default prism layers. Its rims once kept a
+// short edge (0.37 mm beside 1.2 mm ones: a rim merge must end on an input
+// point and keep its chord near the curve); the layer columns of its two
+// nodes ran across the cap 0.14 mm apart, and the cap's fill made a needle
+// tet on them (6.6 degrees) that gave the prism layers up. The remeshing's
+// rim relaxation evens each rim along the input's.
+TEST(FinerSampleCase, TubeAtM14KeepsItsPrismLayers)
+{
+    const nlohmann::json report = run_tube_at(14, "", "");
+    ASSERT_FALSE(report.is_null());
+    EXPECT_EQ(report["volume"]["layers_built"], "prisms") << report["warnings"].dump();
+    EXPECT_TRUE(report["warnings"].empty()) << report["warnings"].dump();
+    EXPECT_GE(report["openfoam"]["intact_prism_share"].get<double>(), 0.95);
+    EXPECT_GE(report["openfoam"]["tet_cells_min_dihedral_deg"].get<double>(), 10.0);
+}
+
 } // namespace
 } // namespace scalemesh

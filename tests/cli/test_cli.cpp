@@ -413,25 +413,31 @@ TEST(Cli, AFailedRunLeavesEarlierOutputsUntouched)
 }
 
 // Where the prism layers cannot be built, the run builds the paper's
-// Delaunay layers instead and says so, rather than failing: a tube of 4
-// voxels radius whose border inlet widens to 5 voxels, where the inlet cap's
-// rim columns stay poor whatever their height.
+// Delaunay layers instead and says so, rather than failing: a tube with a
+// border inlet and outlet whose case asks every tet cell for a smallest
+// dihedral angle of 20 degrees, which the tets of the prism layers' core
+// (Gmsh's, 10 to 12 degrees at worst on the sample cases) do not reach.
+// (Geometry alone made a poor case for this test: each one found, a border
+// inlet widened over a few slices, came to build its prisms as the
+// remeshing and the core improved.)
 TEST(Cli, PrismLayersThatCannotBeBuiltGiveWayToTheDelaunayLayers)
 {
     const TempDir tmp;
-    write_label_mha(tmp.path / "tube.mha", {20, 20, 30}, 0.5, [](int i, int j, int k) {
-        return std::hypot(i - 9.5, j - 9.5) < (k < 3 ? 5 : 4);
+    write_label_mha(tmp.path / "tube.mha", {20, 20, 30}, 0.5, [](int i, int j, int) {
+        return std::hypot(i - 9.5, j - 9.5) < 4;
     });
     std::ofstream(tmp.path / "scalemesh.toml")
         << "[input]\nfile = \"tube.mha\"\n[[openings]]\nname = \"inlet\"\ntype = \"inlet\"\nborder = \"z-\"\n"
-           "[[openings]]\nname = \"outlet\"\ntype = \"outlet\"\nborder = \"z+\"\n";
+           "[[openings]]\nname = \"outlet\"\ntype = \"outlet\"\nborder = \"z+\"\n[volume]\nmin_dihedral_deg = 20\n";
     const CommandResult r = run_scalemesh({"run", tmp.path.string()});
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const nlohmann::json report = nlohmann::json::parse(read_text(tmp.path / "report.json"));
     EXPECT_EQ(report["parameters"]["layers"], "prisms");
     EXPECT_EQ(report["volume"]["layers_built"], "delaunay");
     ASSERT_TRUE(report["volume"]["layer_fallback"].is_string());
-    EXPECT_NE(report["volume"]["layer_fallback"].get<std::string>().find("cap 'inlet'"), std::string::npos)
+    EXPECT_NE(report["volume"]["layer_fallback"].get<std::string>().find(
+                  "the smallest dihedral angle of a tet cell is"),
+              std::string::npos)
         << report["volume"]["layer_fallback"];
     EXPECT_NE(report["warnings"].dump().find("the prism layers were given up"), std::string::npos)
         << report["warnings"];

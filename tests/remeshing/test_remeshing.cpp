@@ -595,7 +595,7 @@ struct CapFigures {
     int64_t wall_around = 0;
 };
 
-CapFigures remesh_capped_cylinder(double radius, bool relax_rims = false)
+CapFigures remesh_capped_cylinder(double radius, bool relax_rims = true)
 {
     const double length = 20, h = 0.5, d = 6;
     const SurfaceMesh input = capped_cylinder(radius, length, h);
