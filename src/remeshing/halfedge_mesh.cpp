@@ -69,47 +69,33 @@ void HalfedgeMesh::set_positions(const std::vector<Vec3>& new_points, const std:
 int32_t HalfedgeMesh::valence(int32_t v) const
 {
     int32_t n = 0;
-    const int32_t start = out_[v];
-    int32_t h = start;
-    do {
+    find_outgoing(v, [&](int32_t) {
         ++n;
-        h = rotate(h);
-    } while (h != start);
+        return false; // on round the whole fan
+    });
     return n;
 }
 
 int32_t HalfedgeMesh::find_halfedge(int32_t a, int32_t b) const
 {
-    const int32_t start = out_[a];
-    int32_t h = start;
-    do {
-        if (to(h) == b) return h;
-        h = rotate(h);
-    } while (h != start);
-    return -1;
+    return find_outgoing(a, [&](int32_t h) { return to(h) == b; });
 }
 
 bool HalfedgeMesh::on_patch_boundary(int32_t v) const
 {
     if (!has_patches_) return false;
-    const int32_t start = out_[v];
-    const int32_t p = patch_[face(start)];
-    int32_t h = rotate(start);
-    for (; h != start; h = rotate(h))
-        if (patch_[face(h)] != p) return true;
-    return false;
+    const int32_t p = patch_[face(out_[v])];
+    return find_outgoing(v, [&](int32_t h) { return patch_[face(h)] != p; }) >= 0;
 }
 
 int32_t HalfedgeMesh::border_edges(int32_t v) const
 {
     if (!has_patches_) return 0;
     int32_t n = 0;
-    const int32_t start = out_[v];
-    int32_t h = start;
-    do {
+    find_outgoing(v, [&](int32_t h) {
         n += border_edge(h);
-        h = rotate(h);
-    } while (h != start);
+        return false; // on round the whole fan
+    });
     return n;
 }
 

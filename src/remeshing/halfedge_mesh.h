@@ -57,6 +57,19 @@ public:
     bool vertex_alive(int32_t v) const { return out_[v] >= 0; }
     int64_t live_faces() const { return live_faces_; }
     int32_t valence(int32_t v) const;
+    // The first half-edge leaving v, turning from outgoing(v) by rotate,
+    // for which found(h) holds, or -1.
+    template <class Predicate>
+    int32_t find_outgoing(int32_t v, Predicate&& found) const
+    {
+        const int32_t start = out_[v];
+        int32_t h = start;
+        do {
+            if (found(h)) return h;
+            h = rotate(h);
+        } while (h != start);
+        return -1;
+    }
     // The half-edge a -> b, or -1 when a and b are not joined.
     int32_t find_halfedge(int32_t a, int32_t b) const;
     // True when the faces around v do not all carry the same patch.

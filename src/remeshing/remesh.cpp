@@ -360,26 +360,20 @@ private:
     // nodes in the rim's direction.
     int32_t rim_out(int32_t v) const
     {
-        const int32_t start = mesh_.outgoing(v);
-        int32_t h = start;
-        do {
-            if (mesh_.border_edge(h) && criteria_.planar(mesh_.patch(HalfedgeMesh::face(h)))) return h;
-            h = mesh_.rotate(h);
-        } while (h != start);
-        return -1;
+        return mesh_.find_outgoing(v, [&](int32_t h) { return flat_rim(h); });
     }
 
     // The rim halfedge arriving at v along the flat patch's side, or -1.
     int32_t rim_in(int32_t v) const
     {
-        const int32_t start = mesh_.outgoing(v);
-        int32_t h = start;
-        do {
-            const int32_t in = HalfedgeMesh::prev(h);
-            if (mesh_.border_edge(in) && criteria_.planar(mesh_.patch(HalfedgeMesh::face(in)))) return in;
-            h = mesh_.rotate(h);
-        } while (h != start);
-        return -1;
+        const int32_t h = mesh_.find_outgoing(v, [&](int32_t out) { return flat_rim(HalfedgeMesh::prev(out)); });
+        return h < 0 ? -1 : HalfedgeMesh::prev(h);
+    }
+
+    // Whether h lies on a rim with a flat patch's face to its left.
+    bool flat_rim(int32_t h) const
+    {
+        return mesh_.border_edge(h) && criteria_.planar(mesh_.patch(HalfedgeMesh::face(h)));
     }
 
     // The input's rims between a flat patch and another patch, each node

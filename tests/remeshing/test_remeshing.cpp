@@ -566,8 +566,8 @@ SurfaceMesh capped_cylinder(double radius, double length, double h)
     return mesh;
 }
 
-// Edges between patch a and patch b.
-int64_t border_edge_count(const SurfaceMesh& mesh, int32_t a, int32_t b)
+// Per undirected edge (smaller node first), the patches of the triangles on it.
+std::map<std::pair<int32_t, int32_t>, std::vector<int32_t>> edge_patches(const SurfaceMesh& mesh)
 {
     std::map<std::pair<int32_t, int32_t>, std::vector<int32_t>> patches;
     for (size_t f = 0; f < mesh.triangles.size(); ++f)
@@ -575,8 +575,14 @@ int64_t border_edge_count(const SurfaceMesh& mesh, int32_t a, int32_t b)
             const int32_t u = mesh.triangles[f][k], v = mesh.triangles[f][(k + 1) % 3];
             patches[{std::min(u, v), std::max(u, v)}].push_back(mesh.triangle_patch[f]);
         }
+    return patches;
+}
+
+// Edges between patch a and patch b.
+int64_t border_edge_count(const SurfaceMesh& mesh, int32_t a, int32_t b)
+{
     int64_t n = 0;
-    for (const auto& [edge, p] : patches)
+    for (const auto& [edge, p] : edge_patches(mesh))
         n += p.size() == 2 && ((p[0] == a && p[1] == b) || (p[0] == b && p[1] == a));
     return n;
 }
@@ -648,13 +654,7 @@ CapFigures remesh_capped_cylinder(double radius, bool relax_rims = true)
         figures.shortest_rim_edge[cap] = std::numeric_limits<double>::infinity();
     }
     {
-        std::map<std::pair<int32_t, int32_t>, std::vector<int32_t>> patches;
-        for (size_t f = 0; f < r.surface.triangles.size(); ++f)
-            for (int k = 0; k < 3; ++k) {
-                const int32_t u = r.surface.triangles[f][k], v = r.surface.triangles[f][(k + 1) % 3];
-                patches[{std::min(u, v), std::max(u, v)}].push_back(r.surface.triangle_patch[f]);
-            }
-        for (const auto& [edge, p] : patches) {
+        for (const auto& [edge, p] : edge_patches(r.surface)) {
             if (p.size() != 2 || (p[0] == 0) == (p[1] == 0)) continue;
             const int32_t cap = std::max(p[0], p[1]);
             const double length = distance(r.surface.points[edge.first], r.surface.points[edge.second]);
