@@ -540,6 +540,7 @@ OpenFoamCellChecks openfoam_cell_checks(const TetMesh& mesh, const TetFaceAdjace
     for (int32_t c : cell_of_tet) ++tets_in[c];
     OpenFoamCellChecks out;
     out.min_pyramid_height = std::numeric_limits<double>::infinity();
+    out.min_weight = internal > 0 ? 1.0 : 0.0;
     // A face beyond a bound: its cells of several tets are split back.
     const auto fail = [&](int32_t a, int32_t b) {
         for (int32_t c : {a, b})
@@ -576,6 +577,11 @@ OpenFoamCellChecks openfoam_cell_checks(const TetMesh& mesh, const TetFaceAdjace
             const double angle = std::acos(std::max(-1.0, cosine)) * 180 / 3.14159265358979323846;
             out.max_non_orthogonality_deg = std::max(out.max_non_orthogonality_deg, angle);
             if (!(angle <= bounds.non_orthogonality_deg)) ++out.faces_beyond_orthogonality, fail(c, other);
+            const double to_owner = std::abs(dot(g.area, g.centre - centre[c]));
+            const double to_neighbour = std::abs(dot(g.area, centre[other] - g.centre));
+            const double weight = std::min(to_owner, to_neighbour) / (to_owner + to_neighbour + 1e-300);
+            out.min_weight = std::min(out.min_weight, weight);
+            if (!(weight >= bounds.weight)) ++out.light_faces, fail(c, other);
             skew = skewness(g, p, count, centre[c], d, 0.2);
         } else {
             const Vec3 normal = g.area / (area + 1e-300);

@@ -78,7 +78,8 @@ PolyMeshCounts write_polymesh(const TetMesh& mesh, const std::filesystem::path& 
                               const PolyMeshOptions& options = {});
 
 // Bounds below checkMesh's own limits (70 degrees of non-orthogonality,
-// skewness 4, a positive pyramid on every face of every cell), with a
+// skewness 4, a positive pyramid on every face of every cell; -allGeometry: an
+// interpolation weight of 0.05), with a
 // margin for the round-off between this measure and OpenFOAM's.
 struct OpenFoamCellBounds {
     double non_orthogonality_deg = 69.9;
@@ -87,13 +88,18 @@ struct OpenFoamCellBounds {
     // the square root of the face's area: a face pyramid flatter than this
     // counts as wrongly oriented (checkMesh fails only a negative one).
     double pyramid_height = 1e-2;
+    // A face's interpolation weight, the nearer cell centre's distance from
+    // the face's plane over the sum of both (OpenFOAM's faceWeights;
+    // checkMesh -allGeometry fails a face below 0.05).
+    double weight = 0.06;
 };
 
 struct OpenFoamCellChecks {
     double max_non_orthogonality_deg = 0; // the worst internal face
     double max_skewness = 0;              // the worst face, internal or boundary
     double min_pyramid_height = 0;        // the flattest face pyramid, as OpenFoamCellBounds::pyramid_height measures
-    int64_t faces_beyond_orthogonality = 0, skew_faces = 0, flat_pyramids = 0; // beyond the bounds
+    double min_weight = 0;                // the smallest interpolation weight of an internal face
+    int64_t faces_beyond_orthogonality = 0, skew_faces = 0, flat_pyramids = 0, light_faces = 0; // beyond the bounds
     std::vector<int32_t> grouped_cells_failing; // cells of more than one tet on a face beyond a bound, ascending
     // Faces checkMesh itself would fail ("Failed N mesh checks"): skewness
     // above 4, or a face pyramid that is not positive. (A face beyond 70
@@ -115,7 +121,10 @@ struct OpenFoamCellChecks {
 //   against their normal);
 // - face pyramids, the volume of each face with each of its cells' centres
 //   as apex, which must be positive (facePyramidVolume: "faces are
-//   incorrectly oriented" when not).
+//   incorrectly oriented" when not);
+// - interpolation weights, min(d_own, d_nei) / (d_own + d_nei) with d a
+//   cell centre's distance from the face's plane (faceWeights, which
+//   checkMesh -allGeometry judges).
 // A cell of several tets has a centre off its tets' centroid where its
 // faces are warped, so a face of it or next to it can pass a check on the
 // tets and fail it here. The cells of more than one tet on a face beyond a

@@ -273,7 +273,8 @@ FoamCells foam_cells(const CaseConfig& config, const PipelineRun& run, const Tet
     // would fail it (`check`), or for a face at 89 degrees.
     const double prism_bound = run.layers == LayerMode::prisms ? 89.0 : 68.0;
     // With layers = "prisms", a tet cell below the aspect-ratio or
-    // dihedral floor or on a face beyond 69.5 degrees (a sliver the
+    // dihedral floor, on a face beyond 69.5 degrees or of an interpolation
+    // weight below 0.06 (a sliver the
     // core's tets leave in a crease of the layers' top, pinned by the
     // locked prisms) is joined to one to three neighbouring cells where
     // their union is a sound polyhedron (OpenFOAM's checks decide).
@@ -556,6 +557,8 @@ std::string report_json(const CaseConfig& config, const PipelineRun& run, const 
                               {"checks",
                                {{"max_skewness", checks.max_skewness},
                                 {"min_pyramid_height", checks.min_pyramid_height},
+                                {"min_interpolation_weight", checks.min_weight},
+                                {"light_faces", checks.light_faces},
                                 {"faces_beyond_orthogonality", checks.faces_beyond_orthogonality},
                                 {"skew_faces", checks.skew_faces},
                                 {"flat_pyramids", checks.flat_pyramids},

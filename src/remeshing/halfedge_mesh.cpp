@@ -71,7 +71,7 @@ int32_t HalfedgeMesh::valence(int32_t v) const
     int32_t n = 0;
     find_outgoing(v, [&](int32_t) {
         ++n;
-        return false; // on round the whole fan
+        return false; // the whole fan round
     });
     return n;
 }
@@ -94,7 +94,7 @@ int32_t HalfedgeMesh::border_edges(int32_t v) const
     int32_t n = 0;
     find_outgoing(v, [&](int32_t h) {
         n += border_edge(h);
-        return false; // on round the whole fan
+        return false; // the whole fan round
     });
     return n;
 }

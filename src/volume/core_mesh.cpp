@@ -165,7 +165,7 @@ void append_array(std::string& bytes, const std::vector<T>& values)
 {
     const uint64_t count = values.size();
     bytes.append(reinterpret_cast<const char*>(&count), sizeof count);
-    bytes.append(reinterpret_cast<const char*>(values.data()), count * sizeof(T));
+    if (count > 0) bytes.append(reinterpret_cast<const char*>(values.data()), count * sizeof(T));
 }
 
 template <class T>
@@ -177,7 +177,7 @@ std::vector<T> read_array(const std::string& bytes, size_t& at)
     at += sizeof count;
     if ((bytes.size() - at) / sizeof(T) < count) throw StageError("volume", "the core's process answered short");
     std::vector<T> values(count);
-    std::memcpy(values.data(), bytes.data() + at, count * sizeof(T));
+    if (count > 0) std::memcpy(values.data(), bytes.data() + at, count * sizeof(T));
     at += count * sizeof(T);
     return values;
 }
@@ -199,6 +199,7 @@ GmshCore decode(const std::string& bytes)
     core.tets = read_array<Tet>(bytes, at);
     const std::vector<char> error = read_array<char>(bytes, at);
     core.last_error.assign(error.begin(), error.end());
+    if (at != bytes.size()) throw StageError("volume", "the core's process answered more than a core");
     return core;
 }
 
@@ -209,8 +210,10 @@ struct CoreError : std::runtime_error {
 
 // Gmsh's tets for the region `boundary` encloses, with the points `inside`
 // embedded: the work of mesh_core's child process, which sets the session's
-// options and makes its scratch model there. Throws std::runtime_error (a
-// CoreError, or what Gmsh reported).
+// options and makes its scratch model there (in `session`, the parent's:
+// a GmshSession opened here would wait on the parent's lock, held by no
+// thread of the child's). Throws std::runtime_error (a CoreError, or what
+// Gmsh reported).
 GmshCore gmsh_core(GmshSession& session, const SurfaceMesh& boundary, const std::vector<Vec3>& inside)
 {
     const size_t nb = boundary.points.size();
@@ -253,6 +256,13 @@ GmshCore gmsh_core(GmshSession& session, const SurfaceMesh& boundary, const std:
     session.set_option("Mesh.RandomFactor3D", 1e-12);
     session.set_option("Mesh.QualityType", 2);
     session.set_option("Mesh.RandomSeed", 1);
+    // One thread: OpenMP's threads do not survive the fork once a host ran
+    // them (a host that meshed with several threads before would leave the
+    // child waiting for them for ever).
+    session.set_option("General.NumThreads", 1);
+    session.set_option("Mesh.MaxNumThreads1D", 1);
+    session.set_option("Mesh.MaxNumThreads2D", 1);
+    session.set_option("Mesh.MaxNumThreads3D", 1);
     const ScratchModel model("scalemesh_core");
 
     TetMesh mesh;
@@ -401,7 +411,10 @@ TetMesh mesh_core(const SurfaceMesh& boundary, const std::vector<Vec3>& inside)
     try {
         core = decode(run_in_child_process([&] { return encode(gmsh_core(session, boundary, inside)); }));
     } catch (const ChildProcessError& e) {
-        if (e.signal() == 0 && e.exit_status() == 0) throw StageError("volume", e.what());
+        if (e.threw()) throw StageError("volume", e.what());
+        // Interrupted from outside: the run stops, it does not try the
+        // paper's layers instead.
+        if (e.interrupted()) throw Error(std::string("volume: the process meshing the core ") + e.what());
         throw StageError("volume", std::string("Gmsh failed meshing the core inside the prism layers: its process ") +
                                        e.what());
     }

@@ -331,6 +331,18 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
         return norm(offset) / extent;
     };
 
+    // The interpolation weight of face k of tet t (OpenFOAM's faceWeights):
+    // the nearer of the two cells' centres' distances from the face's
+    // plane over their sum.
+    const auto face_weight = [&](int32_t t, int k) {
+        const Triangle f = tet_face(mesh.tets[t], k);
+        const Vec3 &p = mesh.points[f[0]], &q = mesh.points[f[1]], &r = mesh.points[f[2]];
+        const Vec3 centre_f = (p + q + r) / 3, area = cross(q - p, r - p);
+        const double own = std::abs(dot(area, centre_f - centroid(t)));
+        const double other = std::abs(dot(area, centre(cell[adjacency.across[4 * t + k]]) - centre_f));
+        return std::min(own, other) / (own + other + 1e-300);
+    };
+
     // The poor tet cells, worst dihedral angle first; the tets looked at in
     // parallel, as marks a sequential loop then collects.
     std::vector<char> is_poor(tets, 0);
@@ -344,7 +356,8 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
                        tet_aspect_ratio(a, b, c, d) < bounds.min_aspect_ratio;
             for (int k = 0; k < 4 && !bad; ++k)
                 if (adjacency.across[4 * t + k] >= 0 &&
-                    (!(face_cosine(t, k, centroid(t)) > min_cosine) || !(face_skewness(t, k) <= bounds.max_skewness)))
+                    (!(face_cosine(t, k, centroid(t)) > min_cosine) || !(face_skewness(t, k) <= bounds.max_skewness) ||
+                     !(face_weight(t, k) >= bounds.min_weight)))
                     bad = true;
             is_poor[i] = bad;
         }

@@ -132,6 +132,21 @@ TEST_P(SampleCase, RunsAndMeetsItsExpectedBounds)
             << "report.json's worst skewness against checkMesh's";
         EXPECT_EQ(checks["checkmesh_failures"].get<int64_t>(), 0);
         EXPECT_GT(checks["min_pyramid_height"].get<double>(), 0.0);
+        // The smallest interpolation weight, which checkMesh measures with
+        // -allGeometry only.
+        const std::string all_log = (dir / "checkMesh-allGeometry.log").string();
+        const std::string all_cmd = "cd '" + dir.string() +
+                                    "' && WM_PROJECT_DIR=/usr/share/openfoam checkMesh -case . -allGeometry > '" +
+                                    all_log + "' 2>&1";
+        ASSERT_EQ(std::system(all_cmd.c_str()), 0); // checkMesh exits 0 whatever its checks find
+        std::ifstream all_in(all_log);
+        const std::string all_text((std::istreambuf_iterator<char>(all_in)), std::istreambuf_iterator<char>());
+        std::smatch weight;
+        ASSERT_TRUE(std::regex_search(all_text, weight,
+                                      std::regex(R"(Face interpolation weight : minimum: ([0-9.eE+-]+))")))
+            << all_text;
+        EXPECT_NEAR(checks["min_interpolation_weight"].get<double>(), std::stod(weight[1]), 1e-6)
+            << "report.json's smallest interpolation weight against checkMesh's";
         // checkMesh works in metres, the report in mm.
         EXPECT_NEAR(std::stod(volume[1]) * 1e9, report["volume"]["volume_mm3"].get<double>(),
                     1e-6 * report["volume"]["volume_mm3"].get<double>());

@@ -44,8 +44,8 @@ TEST(ChildProcess, AnExceptionComesBackWithItsMessage)
         FAIL() << "no error";
     } catch (const ChildProcessError& e) {
         EXPECT_STREQ(e.what(), "the boundary lost a triangle");
-        EXPECT_EQ(e.signal(), 0);
-        EXPECT_EQ(e.exit_status(), 0);
+        EXPECT_TRUE(e.threw());
+        EXPECT_FALSE(e.interrupted());
     }
 }
 
@@ -55,8 +55,10 @@ TEST(ChildProcess, ACrashIsAnErrorOfTheParent)
         run_in_child_process([]() -> std::string { std::abort(); });
         FAIL() << "no error";
     } catch (const ChildProcessError& e) {
+        EXPECT_FALSE(e.threw());
         EXPECT_EQ(e.signal(), SIGABRT);
-        EXPECT_NE(std::string(e.what()).find("killed by signal " + std::to_string(SIGABRT)), std::string::npos)
+        EXPECT_FALSE(e.interrupted()); // a crash of its own
+        EXPECT_NE(std::string(e.what()).find("was killed by signal " + std::to_string(SIGABRT)), std::string::npos)
             << e.what();
     }
     // Exiting without an answer, as after a sanitizer's report.
@@ -64,9 +66,18 @@ TEST(ChildProcess, ACrashIsAnErrorOfTheParent)
         run_in_child_process([]() -> std::string { _exit(3); });
         FAIL() << "no error";
     } catch (const ChildProcessError& e) {
+        EXPECT_FALSE(e.threw());
         EXPECT_EQ(e.signal(), 0);
         EXPECT_EQ(e.exit_status(), 3);
         EXPECT_NE(std::string(e.what()).find("exited with status 3"), std::string::npos) << e.what();
+    }
+    // exit() inside the work ends the child before the parent's atexit
+    // handlers run there.
+    try {
+        run_in_child_process([]() -> std::string { std::exit(0); });
+        FAIL() << "no error";
+    } catch (const ChildProcessError& e) {
+        EXPECT_EQ(e.exit_status(), 2) << e.what();
     }
 }
 
@@ -82,6 +93,7 @@ TEST(ChildProcess, TheParentsInterruptHandlerIsNotRunInTheChild)
         FAIL() << "the child outlived SIGTERM";
     } catch (const ChildProcessError& e) {
         EXPECT_EQ(e.signal(), SIGTERM) << e.what();
+        EXPECT_TRUE(e.interrupted()); // not a crash: the caller stops
     }
     EXPECT_EQ(handled, 0);
     std::signal(SIGTERM, previous);

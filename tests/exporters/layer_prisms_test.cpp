@@ -371,11 +371,12 @@ TEST(LayerPrisms, ASliverOnAPrismJoinsItAsOnePolyhedron)
     EXPECT_EQ(absorb_poor_tets(s.mesh, adjacency, small, PoorTetBounds{.max_cell_tets = 3}), 0);
     EXPECT_EQ(small.cells, 3);
 
-    // A sound tet is no candidate: with floors of 0 and 90 degrees nothing joins.
+    // A sound tet is no candidate: with floors of 0 and 90 degrees and no
+    // least interpolation weight nothing joins.
     LayerPrismCells sound = found;
     EXPECT_EQ(absorb_poor_tets(s.mesh, adjacency, sound,
                                PoorTetBounds{.min_aspect_ratio = 0, .min_dihedral_deg = 0,
-                                             .max_non_orthogonality_deg = 90}),
+                                             .max_non_orthogonality_deg = 90, .min_weight = 0}),
               0);
 }
 
