@@ -577,9 +577,7 @@ OpenFoamCellChecks openfoam_cell_checks(const TetMesh& mesh, const TetFaceAdjace
             const double angle = std::acos(std::max(-1.0, cosine)) * 180 / 3.14159265358979323846;
             out.max_non_orthogonality_deg = std::max(out.max_non_orthogonality_deg, angle);
             if (!(angle <= bounds.non_orthogonality_deg)) ++out.faces_beyond_orthogonality, fail(c, other);
-            const double to_owner = std::abs(dot(g.area, g.centre - centre[c]));
-            const double to_neighbour = std::abs(dot(g.area, centre[other] - g.centre));
-            const double weight = std::min(to_owner, to_neighbour) / (to_owner + to_neighbour + 1e-300);
+            const double weight = face_interpolation_weight(g.area, g.centre, centre[c], centre[other]);
             out.min_weight = std::min(out.min_weight, weight);
             if (!(weight >= bounds.weight)) ++out.light_faces, fail(c, other);
             skew = skewness(g, p, count, centre[c], d, 0.2);

@@ -4,6 +4,9 @@
 
 #include "core/vec3.h"
 
+#include <algorithm>
+#include <cmath>
+
 namespace scalemesh {
 
 // The cosine of OpenFOAM's face non-orthogonality (primitiveMeshCheck's
@@ -28,6 +31,20 @@ inline double face_orthogonality_cosine(const Vec3& area, const Vec3& join, doub
 {
     const double scale = norm(area) * norm(join);
     return scale > 0 ? dot(area, join) / scale : degenerate;
+}
+
+// OpenFOAM's interpolation weight of a face (polyMeshTools::faceWeights,
+// judged by checkMesh -allGeometry): the nearer of the two cell centres'
+// distances from the face's plane over their sum, the distances along the
+// face's area vector (of any length) from its centre. The measure of the
+// polyMesh's checks (openfoam_cell_checks) and of the merging of poor tets
+// (absorb_poor_tets), each with its own centres as above.
+inline double face_interpolation_weight(const Vec3& area, const Vec3& face_centre, const Vec3& owner,
+                                        const Vec3& neighbour)
+{
+    const double to_owner = std::abs(dot(area, face_centre - owner));
+    const double to_neighbour = std::abs(dot(area, neighbour - face_centre));
+    return std::min(to_owner, to_neighbour) / (to_owner + to_neighbour + 1e-300);
 }
 
 } // namespace scalemesh

@@ -499,26 +499,21 @@ private:
                 if (!(to_next + from_prev < 0.5 * length)) continue; // not a neighbourhood of the rim
                 const double shift = kOmega * 0.5 * (to_next - from_prev);
                 const Vec3 x = rim_point(rims_[rim], here + shift);
-                bool sound = true;
-                const int32_t start = mesh_.outgoing(v);
-                int32_t h = start;
-                do {
+                const auto unsound = [&](int32_t h) {
                     const Vec3& b = mesh_.points[mesh_.to(h)];
                     const Vec3& c = mesh_.points[mesh_.opposite(h)];
                     const Vec3 before = cross(b - mesh_.points[v], c - mesh_.points[v]);
                     const Vec3 after = cross(b - x, c - x);
                     const double nb = norm(before), na = norm(after);
-                    sound = na >= kMinArea * nb && dot(before, after) >= cos_turn * nb * na;
-                    h = mesh_.rotate(h);
-                } while (sound && h != start);
-                if (!sound) continue;
+                    return !(na >= kMinArea * nb && dot(before, after) >= cos_turn * nb * na);
+                };
+                if (mesh_.find_outgoing(v, unsound) >= 0) continue;
                 // The volume the move adds, given back with the swaps' (lost_).
                 Vec3 fan{};
-                h = start;
-                do {
+                mesh_.find_outgoing(v, [&](int32_t h) {
                     fan += cross(mesh_.points[mesh_.to(h)], mesh_.points[mesh_.opposite(h)]);
-                    h = mesh_.rotate(h);
-                } while (h != start);
+                    return false; // the whole fan round
+                });
                 lost_[v] -= dot(x - mesh_.points[v], fan) / 6;
                 mesh_.points[v] = x;
                 arc_of_[v] = std::fmod(here + shift + length, length);

@@ -331,16 +331,12 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
         return norm(offset) / extent;
     };
 
-    // The interpolation weight of face k of tet t (OpenFOAM's faceWeights):
-    // the nearer of the two cells' centres' distances from the face's
-    // plane over their sum.
+    // The interpolation weight of face k of tet t against the cell across.
     const auto face_weight = [&](int32_t t, int k) {
         const Triangle f = tet_face(mesh.tets[t], k);
         const Vec3 &p = mesh.points[f[0]], &q = mesh.points[f[1]], &r = mesh.points[f[2]];
-        const Vec3 centre_f = (p + q + r) / 3, area = cross(q - p, r - p);
-        const double own = std::abs(dot(area, centre_f - centroid(t)));
-        const double other = std::abs(dot(area, centre(cell[adjacency.across[4 * t + k]]) - centre_f));
-        return std::min(own, other) / (own + other + 1e-300);
+        return face_interpolation_weight(cross(q - p, r - p), (p + q + r) / 3, centroid(t),
+                                         centre(cell[adjacency.across[4 * t + k]]));
     };
 
     // The poor tet cells, worst dihedral angle first; the tets looked at in
