@@ -61,7 +61,8 @@ case "${1:-run}" in
     if [ ! -f "$sanitize/build.ninja" ]; then
       CC=clang CXX=clang++ cmake -S . -B "$sanitize" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
         -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -gline-tables-only -DNDEBUG" \
-        -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -gline-tables-only -DNDEBUG" -DSCALEMESH_FUZZ=ON -DSCALEMESH_BENCH=OFF
+        -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -gline-tables-only -DNDEBUG" -DSCALEMESH_FUZZ=ON -DSCALEMESH_BENCH=OFF \
+        -DSCALEMESH_TEST_DRIVER_FLAGS=-O0
     fi
     fast_targets=$(sed -n 's/^scalemesh_test(\([a-z_]*\) FAST.*/\1/p' tests/*/CMakeLists.txt)
     # shellcheck disable=SC2086
