@@ -413,22 +413,24 @@ TEST(Cli, AFailedRunLeavesEarlierOutputsUntouched)
 }
 
 // Where the prism layers cannot be built, the run builds the paper's
-// Delaunay layers instead and says so, rather than failing: a tube with a
-// border inlet and outlet whose case asks every tet cell for a smallest
-// dihedral angle of 20 degrees, which the tets of the prism layers' core
-// (Gmsh's, 10 to 12 degrees at worst on the sample cases) do not reach.
-// (Geometry alone made a poor case for this test: each one found, a border
-// inlet widened over a few slices, came to build its prisms as the
-// remeshing and the core improved.)
+// Delaunay layers instead and says so, rather than failing: a tube of 7
+// voxels' radius with a border inlet and outlet, whose prism layers' core
+// leaves slivers (below 1 degree) that no union with their neighbours
+// mends. That is a defect of the prism layers on this tube; when it is
+// mended, this test needs another case that the prism layers miss. (Floors
+// made a poor case: the unions of poor tets with their neighbours came to
+// meet a dihedral floor of 20 and then of any angle; so did geometry, each
+// case found coming to build its prisms as the remeshing and the core
+// improved.)
 TEST(Cli, PrismLayersThatCannotBeBuiltGiveWayToTheDelaunayLayers)
 {
     const TempDir tmp;
     write_label_mha(tmp.path / "tube.mha", {20, 20, 30}, 0.5, [](int i, int j, int) {
-        return std::hypot(i - 9.5, j - 9.5) < 4;
+        return std::hypot(i - 9.5, j - 9.5) < 7;
     });
     std::ofstream(tmp.path / "scalemesh.toml")
         << "[input]\nfile = \"tube.mha\"\n[[openings]]\nname = \"inlet\"\ntype = \"inlet\"\nborder = \"z-\"\n"
-           "[[openings]]\nname = \"outlet\"\ntype = \"outlet\"\nborder = \"z+\"\n[volume]\nmin_dihedral_deg = 20\n";
+           "[[openings]]\nname = \"outlet\"\ntype = \"outlet\"\nborder = \"z+\"\n";
     const CommandResult r = run_scalemesh({"run", tmp.path.string()});
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const nlohmann::json report = nlohmann::json::parse(read_text(tmp.path / "report.json"));
