@@ -47,4 +47,34 @@ inline double face_interpolation_weight(const Vec3& area, const Vec3& face_centr
     return std::min(to_owner, to_neighbour) / (to_owner + to_neighbour + 1e-300);
 }
 
+// OpenFOAM's cell determinant (primitiveMeshTools::cellDeterminant, judged
+// by checkMesh -allGeometry, which fails a cell below 0.001): over a
+// cell's internal faces only, the determinant of the sum of the outer
+// products of their area vectors, each over the faces' mean area, over 8 (a
+// cube's is 1); 0 for a cell without internal faces. Small where the
+// internal faces' normals all but miss a direction, as for a tall tet on a
+// small, obtuse boundary triangle: the solver's least-squares gradients
+// are then ill-posed. Add each internal face's area vector (of either
+// orientation), then read determinant().
+class CellDeterminant {
+public:
+    void add(const Vec3& area)
+    {
+        xx_ += area[0] * area[0], xy_ += area[0] * area[1], xz_ += area[0] * area[2];
+        yy_ += area[1] * area[1], yz_ += area[1] * area[2], zz_ += area[2] * area[2];
+        area_ += norm(area), ++faces_;
+    }
+    double determinant() const
+    {
+        if (faces_ == 0 || !(area_ > 0)) return 0;
+        const double mean = area_ / faces_, scale = mean * mean * mean * mean * mean * mean;
+        const double det = xx_ * (yy_ * zz_ - yz_ * yz_) - xy_ * (xy_ * zz_ - yz_ * xz_) + xz_ * (xy_ * yz_ - yy_ * xz_);
+        return std::abs(det) / scale / 8;
+    }
+
+private:
+    double xx_ = 0, xy_ = 0, xz_ = 0, yy_ = 0, yz_ = 0, zz_ = 0, area_ = 0;
+    int faces_ = 0;
+};
+
 } // namespace scalemesh

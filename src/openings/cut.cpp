@@ -336,7 +336,7 @@ private:
                 area.push_back(std::move(per_seed));
             }
             int chosen = 0;
-            for (int k = 1; k < last && chosen == 0; ++k) {
+            for (int k = BorderRule::first_plane; k < last && chosen == 0; ++k) {
                 bool settled = true;
                 for (int32_t p = 0; p < seeds; ++p)
                     settled = settled && area[k - 1][p] >= (1 - BorderRule::shrink_tolerance) * area[k][p];

@@ -303,13 +303,17 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
     const auto centre = [&](int32_t c) { return moment_of(c).centre(); };
     const double min_cosine = std::cos(bounds.max_non_orthogonality_deg * 3.14159265358979323846 / 180);
     const double min_sine = std::sin(kStarAngleDeg * 3.14159265358979323846 / 180);
+    // The area vector of face k of tet t.
+    const auto face_area = [&](int32_t t, int k) {
+        const Triangle f = tet_face(mesh.tets[t], k);
+        return cross(mesh.points[f[1]] - mesh.points[f[0]], mesh.points[f[2]] - mesh.points[f[0]]);
+    };
+
     // The cosine of face k of tet t against the join from `from` to the
     // centre of the cell across; NaN for a flat face or a zero join, which
     // sticks in the comparisons below.
     const auto face_cosine = [&](int32_t t, int k, const Vec3& from) {
-        const Triangle f = tet_face(mesh.tets[t], k);
-        const Vec3 n = cross(mesh.points[f[1]] - mesh.points[f[0]], mesh.points[f[2]] - mesh.points[f[0]]);
-        return face_orthogonality_cosine(n, centre(cell[adjacency.across[4 * t + k]]) - from,
+        return face_orthogonality_cosine(face_area(t, k), centre(cell[adjacency.across[4 * t + k]]) - from,
                                          std::numeric_limits<double>::quiet_NaN());
     };
 
@@ -350,11 +354,15 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
             const Vec3 &a = mesh.points[x[0]], &b = mesh.points[x[1]], &c = mesh.points[x[2]], &d = mesh.points[x[3]];
             bool bad = tet_min_dihedral_deg(a, b, c, d) < bounds.min_dihedral_deg ||
                        tet_aspect_ratio(a, b, c, d) < bounds.min_aspect_ratio;
+            CellDeterminant determinant;
             for (int k = 0; k < 4 && !bad; ++k)
-                if (adjacency.across[4 * t + k] >= 0 &&
-                    (!(face_cosine(t, k, centroid(t)) > min_cosine) || !(face_skewness(t, k) <= bounds.max_skewness) ||
-                     !(face_weight(t, k) >= bounds.min_weight)))
-                    bad = true;
+                if (adjacency.across[4 * t + k] >= 0) {
+                    determinant.add(face_area(t, k));
+                    if (!(face_cosine(t, k, centroid(t)) > min_cosine) ||
+                        !(face_skewness(t, k) <= bounds.max_skewness) || !(face_weight(t, k) >= bounds.min_weight))
+                        bad = true;
+                }
+            if (!(determinant.determinant() >= bounds.min_determinant)) bad = true;
             is_poor[i] = bad;
         }
     });
@@ -397,6 +405,12 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
                     if (u[b] > u[b + 1]) std::swap(u[b], u[b + 1]);
             return u;
         };
+        // A union's determinant reaches the bound, or the tet's own where
+        // that is lower already (a sliver of one internal face has none).
+        CellDeterminant own;
+        for (int k = 0; k < 4; ++k)
+            if (adjacency.across[4 * t + k] >= 0) own.add(face_area(t, k));
+        const double min_determinant = std::min(bounds.min_determinant, own.determinant());
         const auto refused_here = refused.find(t);
         TetUnion best{-1, -1, -1};
         double best_cosine = min_cosine;
@@ -417,6 +431,7 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
             // worst cosine to the cells across.
             double worst = 1;
             bool star = true;
+            CellDeterminant determinant; // over the outer faces to other cells (a prism's side quad as its two triangles)
             std::vector<int32_t> on_faces, all_points; // the union's points: each must stay on an outer face
             const auto outer = [&](int32_t u) {
                 all_points.insert(all_points.end(), mesh.tets[u].begin(), mesh.tets[u].end());
@@ -427,15 +442,17 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
                     on_faces.insert(on_faces.end(), f.begin(), f.end());
                     if (!faces_centre(mesh.points[f[0]], mesh.points[f[1]], mesh.points[f[2]], joint, min_sine))
                         star = false;
-                    else if (a >= 0)
+                    else if (a >= 0) {
+                        determinant.add(face_area(u, j));
                         if (const double c = face_cosine(u, j, joint); !(c >= worst)) worst = c; // NaN sticks
+                    }
                 }
             };
             outer(t);
             for (const int32_t c : with)
                 if (c >= 0)
                     for (const int32_t u : members.of(c)) outer(u);
-            if (!star || !(worst > best_cosine)) return;
+            if (!star || !(worst > best_cosine) || !(determinant.determinant() >= min_determinant)) return;
             // A point all of whose tets the union holds would lie inside the
             // cell, on no face: OpenFOAM fails a mesh with an unused point.
             std::sort(on_faces.begin(), on_faces.end());

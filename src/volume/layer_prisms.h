@@ -64,13 +64,18 @@ LayerPrismCells layer_prism_cells(const TetMesh& mesh, const TetFaceAdjacency& a
 // skewed beyond `max_skewness` (the face centre's offset from where that
 // join crosses it, over the face's extent that way, as checkMesh has it) or
 // with an interpolation weight below `min_weight` (its centre near the
-// face's plane against the other cell's).
+// face's plane against the other cell's), or a cell determinant below
+// `min_determinant` (CellDeterminant: a tall tet on a small, obtuse cap
+// triangle, whose internal faces' normals all but miss a direction). A
+// union that takes a poor tet has a determinant of at least that bound, or
+// of the tet's own where that is lower.
 struct PoorTetBounds {
     double min_aspect_ratio = 0.1; // tet_aspect_ratio (quality.h)
     double min_dihedral_deg = 10;
     double max_non_orthogonality_deg = 68;
     double max_skewness = 3.5; // a face's skewness as checkMesh measures it (checkMesh fails beyond 4)
     double min_weight = 0.06;  // a face's interpolation weight (checkMesh -allGeometry fails below 0.05)
+    double min_determinant = 0.002; // the cell's (checkMesh -allGeometry fails below 0.001)
     int32_t max_cell_tets = 7; // no cell grows beyond this many tets (7: a sliver and two prisms)
 };
 

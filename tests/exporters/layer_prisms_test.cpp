@@ -372,11 +372,13 @@ TEST(LayerPrisms, ASliverOnAPrismJoinsItAsOnePolyhedron)
     EXPECT_EQ(small.cells, 3);
 
     // A sound tet is no candidate: with floors of 0 and 90 degrees and no
-    // least interpolation weight nothing joins.
+    // least interpolation weight or determinant nothing joins (the sliver,
+    // with one internal face, has no determinant).
     LayerPrismCells sound = found;
     EXPECT_EQ(absorb_poor_tets(s.mesh, adjacency, sound,
                                PoorTetBounds{.min_aspect_ratio = 0, .min_dihedral_deg = 0,
-                                             .max_non_orthogonality_deg = 90, .min_weight = 0}),
+                                             .max_non_orthogonality_deg = 90, .min_weight = 0,
+                                             .min_determinant = 0}),
               0);
 }
 
