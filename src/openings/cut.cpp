@@ -336,7 +336,10 @@ private:
                 area.push_back(std::move(per_seed));
             }
             int chosen = 0;
-            for (int k = BorderRule::first_plane; k < last && chosen == 0; ++k) {
+            // From the first plane the rule takes, or from plane 1 where two
+            // pieces join before the search passes that plane.
+            const int first = last > BorderRule::first_plane ? BorderRule::first_plane : 1;
+            for (int k = first; k < last && chosen == 0; ++k) {
                 bool settled = true;
                 for (int32_t p = 0; p < seeds; ++p)
                     settled = settled && area[k - 1][p] >= (1 - BorderRule::shrink_tolerance) * area[k][p];

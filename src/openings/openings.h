@@ -77,11 +77,11 @@ struct ImageFrame {
 //   it, summed over its crossings) is measured on planes 1, 2, ...,
 //   `search_depth` voxels inside the outermost point; the search stops before
 //   a plane where two reaching pieces are joined beyond it;
-// - the inset is the first plane k from `first_plane` whose every reaching
-//   piece has at least (1 - shrink_tolerance) of the area it has on plane
-//   k + 1 (the taper or the rounding of the image face is behind it); when
-//   no plane qualifies the deepest plane searched is used and a warning
-//   says so.
+// - the inset is the first plane k from `first_plane` (from 1 where the
+//   search stops before passing it) whose every reaching piece has at least
+//   (1 - shrink_tolerance) of the area it has on plane k + 1 (the taper or
+//   the rounding of the image face is behind it); when no plane qualifies
+//   the deepest plane searched is used and a warning says so.
 // The smoothed surface rounds over its last voxel or so at the image face
 // even where the area has settled: on a tube of 7 voxels' radius the
 // cross-section 1 voxel in has 98-99% of the straight section's area, but
@@ -95,6 +95,7 @@ struct BorderRule {
     static constexpr int search_depth = 10;           // voxels
     static constexpr double shrink_tolerance = 0.05;  // fraction of area per voxel
     static constexpr double reach = 2.0;              // voxels from the image face
+    static_assert(1 <= first_plane && first_plane < search_depth);
 };
 
 struct Cap {

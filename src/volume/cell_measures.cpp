@@ -19,7 +19,7 @@ namespace {
 
 using improvement::face_cosine;
 using improvement::parallel_marks;
-using improvement::shared_face_score;
+using improvement::shared_face_cosine;
 
 } // namespace
 
@@ -39,7 +39,7 @@ std::vector<char> tets_missing_floors(const TetMesh& mesh, double dihedral_floor
             if (u < 0) continue; // boundary or overshared
             const Tet& other = mesh.tets[u];
             const bool lower = u > static_cast<int32_t>(i);
-            if (shared_face_score(at, lower ? t : other, lower ? other : t) < bound) return true;
+            if (shared_face_cosine(at, lower ? t : other, lower ? other : t) < bound) return true;
         }
         return false;
     });

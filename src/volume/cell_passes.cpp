@@ -44,7 +44,7 @@ using improvement::point_gradient;
 using improvement::shape_of;
 using improvement::Shape;
 using improvement::ShapeOrder;
-using improvement::shared_face_score;
+using improvement::shared_face_cosine;
 using improvement::split_at;
 using improvement::TetEditor;
 using improvement::with_cosine;
@@ -660,7 +660,7 @@ private:
         if (ed_.locked(t) && ed_.locked(u) &&
             !(ed_.centres && ed_.centres->top_prisms_apart(ed_.tet(t), ed_.tet(u))))
             return 1.0;
-        return shared_face_score(at, ed_.tet(t), ed_.tet(u), ed_.centres);
+        return shared_face_cosine(at, ed_.tet(t), ed_.tet(u), ed_.centres);
     }
     static bool in_order(const Target& a, const Target& b) { return a.t != b.t ? a.t < b.t : a.k < b.k; }
 

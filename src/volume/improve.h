@@ -135,10 +135,7 @@ struct OrthoCounts {
 };
 
 // Face non-orthogonality as OpenFOAM measures it (the angle between an
-// interior face's normal and the join of its two tets' centroids), a face
-// of interpolation weight below 0.06 (a thin tet beside one many times
-// taller, which checkMesh -allGeometry fails below 0.05) counted as beyond
-// an angle, the weight 0.05 at 70 degrees (face_score, tet_editor.h): for at
+// interior face's normal and the join of its two tets' centroids): for at
 // most `sweeps` rounds, each interior face beyond `max_angle_deg` gets a
 // flip (2-3, 3-2, 4-4) or an edge removal (an interior edge with five to
 // seven tets replaced by the best triangulation of its ring) at one of its
@@ -276,8 +273,7 @@ CellCounts improve_cells(TetMesh& mesh, int32_t surface_points, const CellPassPa
 // dihedral angle is below `dihedral_floor` degrees, and both tets of each
 // interior face whose non-orthogonality (the angle between the face's
 // normal and the join of the two tets' centroids, as OpenFOAM measures it)
-// is above `ortho_bound` degrees, a light face's weight counted as an angle
-// (improve_orthogonality). Sorted, each once. The same measures as
+// is above `ortho_bound` degrees. Sorted, each once. The same measures as
 // the two passes above (they take what this finds); the tets are looked at
 // in parallel.
 std::vector<int32_t> points_missing_floors(const TetMesh& mesh, int32_t surface_points, double dihedral_floor,
@@ -288,8 +284,8 @@ std::vector<int32_t> points_missing_floors(const TetMesh& mesh, int32_t surface_
 std::vector<char> tets_missing_floors(const TetMesh& mesh, double dihedral_floor, double ortho_bound);
 
 // The largest face non-orthogonality over the interior faces of `mesh`
-// (`adjacency` its tet_face_adjacency), in degrees, measured as
-// OpenFOAM's checkMesh measures it (the weights aside); 0 without interior faces, 180
+// (`adjacency` its tet_face_adjacency), in degrees, measured as the passes
+// above and OpenFOAM's checkMesh measure it; 0 without interior faces, 180
 // for a degenerate face. In parallel, the same on any number of threads.
 double max_non_orthogonality_deg(const TetMesh& mesh, const TetFaceAdjacency& adjacency);
 

@@ -283,79 +283,32 @@ double volume_floor6(const TetEditor& ed, const Tets& tets)
 // The cosine of OpenFOAM's non-orthogonality of the face of tet t opposite
 // its corner k, shared with the tet `other`: the face's normal (out of t)
 // against the join of the two cells' centres, points read through at(id);
-// -2 (below any cosine) when the face or the join is degenerate; and the
-// face's interpolation weight from the same centres (0.5 where the cosine
-// is degenerate). A tet's cell is itself (its centre its centroid), or with
-// `centres` the layer prism it fills (the prism's centre); cosine 1 and
-// weight 0.5 for two tets of one prism.
-struct FaceMeasures {
-    double cosine, weight;
-};
-
+// -2 (below any cosine) when the face or the join is degenerate. A tet's
+// cell is itself (its centre its centroid), or with `centres` the layer
+// prism it fills (the prism's centre); 1 for two tets of one prism. The
+// measure of the cell passes (cell_passes.cpp); points_missing_floors, which
+// picks the cells for the passes' last round, measures tets alone.
 template <class At>
-FaceMeasures face_measures(const At& at, const Tet& t, int k, const Tet& other, const CellCentres* centres = nullptr)
+double face_cosine(const At& at, const Tet& t, int k, const Tet& other, const CellCentres* centres = nullptr)
 {
     int64_t key_t = -1, key_o = -2;
     Vec3 from, to;
     if (!(centres && centres->of(t, at, from, &key_t))) from = 0.25 * (at(t[0]) + at(t[1]) + at(t[2]) + at(t[3]));
     if (!(centres && centres->of(other, at, to, &key_o))) to = 0.25 * (at(other[0]) + at(other[1]) + at(other[2]) + at(other[3]));
-    if (key_t == key_o) return {1.0, 0.5}; // two tets of one cell
-    const Vec3 &a = at(t[(k + 1) % 4]), &b = at(t[(k + 2) % 4]), &c = at(t[(k + 3) % 4]);
-    Vec3 normal = cross(b - a, c - a);
+    if (key_t == key_o) return 1.0; // two tets of one cell
+    const Vec3& a = at(t[(k + 1) % 4]);
+    Vec3 normal = cross(at(t[(k + 2) % 4]) - a, at(t[(k + 3) % 4]) - a);
     if (dot(normal, at(t[k]) - a) > 0) normal = -normal; // out of t
-    const double cosine = face_orthogonality_cosine(normal, to - from, -2);
-    if (cosine < -1.5) return {cosine, 0.5};
-    return {cosine, face_interpolation_weight(normal, (a + b + c) / 3.0, from, to)};
+    return face_orthogonality_cosine(normal, to - from, -2);
 }
 
-// The non-orthogonality alone (face_measures' cosine): what
-// max_non_orthogonality_deg reports.
-template <class At>
-double face_cosine(const At& at, const Tet& t, int k, const Tet& other, const CellCentres* centres = nullptr)
-{
-    return face_measures(at, t, k, other, centres).cosine;
-}
-
-// The interpolation weight below which a face counts in the passes
-// (face_score), as the polyMesh stage's PoorTetBounds::min_weight: checkMesh
-// -allGeometry fails a face below 0.05.
-constexpr double kLightFaceWeight = 0.06;
-
-// The one face measure of the cell passes (cell_passes.cpp): the cosine of
-// the face's non-orthogonality, or for a face lighter than kLightFaceWeight,
-// if lower, its weight on the same scale, checkMesh's weight floor 0.05 at
-// the cosine of the non-orthogonality floor, 70 degrees (a weight of 0.06 at
-// 65.8 degrees, beyond the passes' bound of 65). So a light face (a thin
-// tet beside one many times taller) is a target of the non-orthogonality
-// pass, a change is judged on it as on an angle, and no change makes a
-// face lighter than the bound unless it makes the worst face better.
-template <class At>
-double face_score(const At& at, const Tet& t, int k, const Tet& other, const CellCentres* centres = nullptr)
-{
-    static const double per_weight = std::cos(70 * M_PI / 180) / 0.05;
-    const FaceMeasures m = face_measures(at, t, k, other, centres);
-    return m.weight < kLightFaceWeight ? std::min(m.cosine, m.weight * per_weight) : m.cosine;
-}
-
-// The corner of tet t off the face it shares with `other`.
-inline int corner_off(const Tet& t, const Tet& other)
-{
-    int k = 0;
-    while (TetEditor::contains(other, t[k])) ++k;
-    return k;
-}
-
-// face_cosine and face_score of the face tets t and `other` share.
+// face_cosine of the face tets t and `other` share, t's corner off it found.
 template <class At>
 double shared_face_cosine(const At& at, const Tet& t, const Tet& other, const CellCentres* centres = nullptr)
 {
-    return face_cosine(at, t, corner_off(t, other), other, centres);
-}
-
-template <class At>
-double shared_face_score(const At& at, const Tet& t, const Tet& other, const CellCentres* centres = nullptr)
-{
-    return face_score(at, t, corner_off(t, other), other, centres);
+    int k = 0;
+    while (TetEditor::contains(other, t[k])) ++k;
+    return face_cosine(at, t, k, other, centres);
 }
 
 // An interior face of tets[i] (the face opposite its corner k) and the tet
@@ -395,9 +348,9 @@ std::vector<FaceLink> face_links(TetEditor& ed, const Tets& tets, const Old& old
     return links;
 }
 
-// The smallest face_score (the cosine of OpenFOAM's face
-// non-orthogonality, lowered for a light face) with the editor's `centres`
-// over the faces `links`
+// The smallest cosine of OpenFOAM's face non-orthogonality (the angle
+// between an interior face's normal and the join of its two cells'
+// centres, face_cosine with the editor's `centres`) over the faces `links`
 // of `tets`, with the points where they are now. -1 when a join or a face is
 // degenerate. A move of a layer prism's top point is judged on the faces of
 // its own tets; the faces of its prisms' other tets, whose centre it moves
@@ -409,7 +362,7 @@ double worst_cosine(const TetEditor& ed, const Tets& tets, const std::vector<Fac
     const auto at = [&](int32_t v) -> const Vec3& { return ed.point(v); };
     for (const FaceLink& link : links) {
         const Tet& other = link.inside >= 0 ? tets[link.inside] : ed.tet(link.outside);
-        const double cosine = face_score(at, tets[link.i], link.k, other, ed.centres);
+        const double cosine = face_cosine(at, tets[link.i], link.k, other, ed.centres);
         if (cosine < -1.5) return -1;
         worst = std::min(worst, cosine);
     }

@@ -412,6 +412,22 @@ TEST(Cli, AFailedRunLeavesEarlierOutputsUntouched)
     EXPECT_EQ(tmp.files(), files);
 }
 
+// A label image of a tube of 7 voxels' radius along z (20 x 20 x 30 voxels
+// of 0.5 mm) in `dir`, and its case file: a border inlet and outlet at its
+// ends, cut `inset` in ("": the automatic inset).
+void write_border_tube(const std::filesystem::path& dir, const std::string& inset)
+{
+    write_label_mha(dir / "tube.mha", {20, 20, 30}, 0.5, [](int i, int j, int) {
+        return std::hypot(i - 9.5, j - 9.5) < 7;
+    });
+    const std::string cut = inset.empty() ? "" : "inset = \"" + inset + "\"\n";
+    std::ofstream(dir / "scalemesh.toml") << "[input]\nfile = \"tube.mha\"\n[[openings]]\nname = \"inlet\"\ntype = "
+                                             "\"inlet\"\nborder = \"z-\"\n"
+                                          << cut
+                                          << "[[openings]]\nname = \"outlet\"\ntype = \"outlet\"\nborder = \"z+\"\n"
+                                          << cut;
+}
+
 // The automatic inset of a border opening takes no plane nearer the face
 // than 2 voxels (BorderRule::first_plane): 1 voxel in, the smoothed
 // surface still rounds over the image face, and the prism columns on the
@@ -420,12 +436,7 @@ TEST(Cli, AFailedRunLeavesEarlierOutputsUntouched)
 TEST(Cli, TubeWithBorderOpeningsKeepsItsPrismLayers)
 {
     const TempDir tmp;
-    write_label_mha(tmp.path / "tube.mha", {20, 20, 30}, 0.5, [](int i, int j, int) {
-        return std::hypot(i - 9.5, j - 9.5) < 7;
-    });
-    std::ofstream(tmp.path / "scalemesh.toml")
-        << "[input]\nfile = \"tube.mha\"\n[[openings]]\nname = \"inlet\"\ntype = \"inlet\"\nborder = \"z-\"\n"
-           "[[openings]]\nname = \"outlet\"\ntype = \"outlet\"\nborder = \"z+\"\n";
+    write_border_tube(tmp.path, "");
     const CommandResult r = run_scalemesh({"run", tmp.path.string(), "--strict"});
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const nlohmann::json report = nlohmann::json::parse(read_text(tmp.path / "report.json"));
@@ -450,13 +461,7 @@ TEST(Cli, TubeWithBorderOpeningsKeepsItsPrismLayers)
 TEST(Cli, PrismLayersThatCannotBeBuiltGiveWayToTheDelaunayLayers)
 {
     const TempDir tmp;
-    write_label_mha(tmp.path / "tube.mha", {20, 20, 30}, 0.5, [](int i, int j, int) {
-        return std::hypot(i - 9.5, j - 9.5) < 7;
-    });
-    std::ofstream(tmp.path / "scalemesh.toml")
-        << "[input]\nfile = \"tube.mha\"\n[[openings]]\nname = \"inlet\"\ntype = \"inlet\"\nborder = \"z-\"\n"
-           "inset = \"1 voxel\"\n[[openings]]\nname = \"outlet\"\ntype = \"outlet\"\nborder = \"z+\"\n"
-           "inset = \"1 voxel\"\n";
+    write_border_tube(tmp.path, "1 voxel");
     const CommandResult r = run_scalemesh({"run", tmp.path.string()});
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const nlohmann::json report = nlohmann::json::parse(read_text(tmp.path / "report.json"));

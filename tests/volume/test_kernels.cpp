@@ -359,26 +359,6 @@ TEST(KernelNonOrthogonality, PointsMissingFloorsAreThePointsOfTheCellsBeyondTheB
     EXPECT_EQ(points_missing_floors(beyond, 0, 0.5 * (first + second), 180.0), (std::vector<int32_t>{0, 1, 2, 4}));
 }
 
-// A thin tet under a tall one, their centroids on one normal of the face
-// (no non-orthogonality): the face's interpolation weight is h / (1 + h)
-// for apex heights 1 and h, which checkMesh -allGeometry fails below 0.05.
-// The passes count a face below 0.06 as beyond an angle, the weight 0.05 at
-// 70 degrees, so the finder marks both tets at h = 0.04 (weight 0.038) and
-// neither at h = 0.07 (0.065); the non-orthogonality reported stays 0.
-TEST(KernelNonOrthogonality, ALightFaceMissesTheFloorAsAnAngleWould)
-{
-    const auto mesh = [](double h) {
-        const double c = 1.0 / 3;
-        return tet_mesh({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {c, c, 1}, {c, c, -h}}, {{0, 1, 2, 3}, {0, 1, 2, 4}});
-    };
-    const TetMesh light = mesh(0.04), fair = mesh(0.07);
-    EXPECT_EQ(points_missing_floors(light, 0, 0.0, 70.0), (std::vector<int32_t>{0, 1, 2, 3, 4}));
-    EXPECT_TRUE(points_missing_floors(fair, 0, 0.0, 70.0).empty());
-    // The weight 0.038 counts as 74.7 degrees: beyond 70, not beyond 75.
-    EXPECT_TRUE(points_missing_floors(light, 0, 0.0, 75.0).empty());
-    EXPECT_NEAR(max_non_orthogonality_deg(light, tet_face_adjacency(light)), 0, 1e-6);
-}
-
 // ---- Conditional insertion (Algorithm 5) ---------------------------------
 
 // A closed tetrahedron surface: the equilateral triangle c0 c1 c2 in z = 0
