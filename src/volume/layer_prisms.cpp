@@ -309,6 +309,14 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
         return cross(mesh.points[f[1]] - mesh.points[f[0]], mesh.points[f[2]] - mesh.points[f[0]]);
     };
 
+    // The determinant of tet t as a cell of its own (its internal faces).
+    const auto lone_determinant = [&](int32_t t) {
+        CellDeterminant d;
+        for (int k = 0; k < 4; ++k)
+            if (adjacency.across[4 * t + k] >= 0) d.add(face_area(t, k));
+        return d.determinant();
+    };
+
     // The cosine of face k of tet t against the join from `from` to the
     // centre of the cell across; NaN for a flat face or a zero join, which
     // sticks in the comparisons below.
@@ -354,15 +362,12 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
             const Vec3 &a = mesh.points[x[0]], &b = mesh.points[x[1]], &c = mesh.points[x[2]], &d = mesh.points[x[3]];
             bool bad = tet_min_dihedral_deg(a, b, c, d) < bounds.min_dihedral_deg ||
                        tet_aspect_ratio(a, b, c, d) < bounds.min_aspect_ratio;
-            CellDeterminant determinant;
             for (int k = 0; k < 4 && !bad; ++k)
-                if (adjacency.across[4 * t + k] >= 0) {
-                    determinant.add(face_area(t, k));
-                    if (!(face_cosine(t, k, centroid(t)) > min_cosine) ||
-                        !(face_skewness(t, k) <= bounds.max_skewness) || !(face_weight(t, k) >= bounds.min_weight))
-                        bad = true;
-                }
-            if (!(determinant.determinant() >= bounds.min_determinant)) bad = true;
+                if (adjacency.across[4 * t + k] >= 0 &&
+                    (!(face_cosine(t, k, centroid(t)) > min_cosine) || !(face_skewness(t, k) <= bounds.max_skewness) ||
+                     !(face_weight(t, k) >= bounds.min_weight)))
+                    bad = true;
+            if (!bad && !(lone_determinant(t) >= bounds.min_determinant)) bad = true;
             is_poor[i] = bad;
         }
     });
@@ -407,10 +412,7 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
         };
         // A union's determinant reaches the bound, or the tet's own where
         // that is lower already (a sliver of one internal face has none).
-        CellDeterminant own;
-        for (int k = 0; k < 4; ++k)
-            if (adjacency.across[4 * t + k] >= 0) own.add(face_area(t, k));
-        const double min_determinant = std::min(bounds.min_determinant, own.determinant());
+        const double min_determinant = std::min(bounds.min_determinant, lone_determinant(t));
         const auto refused_here = refused.find(t);
         TetUnion best{-1, -1, -1};
         double best_cosine = min_cosine;
