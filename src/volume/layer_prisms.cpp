@@ -332,7 +332,7 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
     const auto face_skewness = [&](int32_t t, int k) {
         const Triangle f = tet_face(mesh.tets[t], k);
         const Vec3 &p = mesh.points[f[0]], &q = mesh.points[f[1]], &r = mesh.points[f[2]];
-        const Vec3 centre_f = (p + q + r) / 3, area = cross(q - p, r - p);
+        const Vec3 centre_f = (p + q + r) / 3, area = face_area(t, k);
         const Vec3 from = centroid(t);
         const Vec3 d = centre(cell[adjacency.across[4 * t + k]]) - from;
         const Vec3 to_face = centre_f - from;
@@ -346,8 +346,8 @@ int64_t absorb_poor_tets(const TetMesh& mesh, const TetFaceAdjacency& adjacency,
     // The interpolation weight of face k of tet t against the cell across.
     const auto face_weight = [&](int32_t t, int k) {
         const Triangle f = tet_face(mesh.tets[t], k);
-        const Vec3 &p = mesh.points[f[0]], &q = mesh.points[f[1]], &r = mesh.points[f[2]];
-        return face_interpolation_weight(cross(q - p, r - p), (p + q + r) / 3, centroid(t),
+        return face_interpolation_weight(face_area(t, k),
+                                         (mesh.points[f[0]] + mesh.points[f[1]] + mesh.points[f[2]]) / 3, centroid(t),
                                          centre(cell[adjacency.across[4 * t + k]]));
     };
 

@@ -34,6 +34,20 @@
 namespace scalemesh {
 namespace {
 
+// The interpolation weight the faces between tets are mended to after the
+// cell passes (mend_light_faces): a margin over checkMesh's 0.05, since the
+// writer's cell centres (OpenFOAM's) differ from the tets' centroids in the
+// last bits and a tet may join a neighbour as one cell.
+constexpr double kLightFaceTarget = 0.06;
+
+void count_light_faces(const LightFaceCounts& made, VolumeResult& result)
+{
+    result.light_faces_before = made.faces_before;
+    result.light_face_moves = made.moves;
+    result.light_face_cap_flips = made.cap_flips;
+    result.light_faces_after = made.faces_after;
+}
+
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
@@ -306,6 +320,7 @@ void improve_joined(TetMesh& mesh, const SurfaceMesh& surface, const LayerStack&
     count_cell_passes(made, result);
     result.dihedral_tets_before = made.dihedral.tets_before;
     result.ortho_faces_before = made.ortho.faces_before;
+    count_light_faces(mend_light_faces(mesh, n, kLightFaceTarget, bounds, locked, &prisms, surface.triangle_patch), result);
     result.seconds_cell_passes = seconds_since(cell_passes);
 }
 
@@ -787,6 +802,7 @@ VolumeResult build_volume_mesh(const SurfaceMesh& surface, const FeatureSize& si
             once.first_ortho_sweeps = schedule.ortho_sweeps;
             count_cell_passes(improve_cells(mesh, n, once, released), result);
         }
+        count_light_faces(mend_light_faces(mesh, n, kLightFaceTarget, released, 0, nullptr, surface.triangle_patch), result);
         result.seconds_cell_passes = seconds_since(cell_passes);
         result.prism_groups.after_cell_passes = prism_groups();
         attribute_new_points(result, n);

@@ -121,6 +121,10 @@ struct VolumeResult {
     int64_t released_layer_points = 0; // layer points let off their layers for a last round where cells still
                                        // missed 10 degrees of dihedral angle or 70 of non-orthogonality
     int64_t sliver_splits = 0;   // edges of surface-point slivers split by a new interior point
+    int64_t light_faces_before = 0, light_face_cap_flips = 0, light_face_moves = 0, light_faces_after = 0;
+                                 // faces between tets of interpolation weight below 0.06 after the cell
+                                 // passes, the flat cap quads flipped and the moves that raised them
+                                 // (mend_light_faces), those left
     // seconds_classify is the removal: the surface points' triangulation,
     // inside and outside, the output and the quads put back.
     double seconds_points = 0, seconds_insertion = 0, seconds_classify = 0, seconds_flips = 0,

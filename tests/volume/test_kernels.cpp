@@ -2,6 +2,7 @@
 // of section 2.4 with the volume criterion, and the conditions of
 // Algorithm 5 (the volume floor, the filler rule) in the insertion.
 
+#include "core/face_measures.h"
 #include "core/surface_mesh.h"
 #include "core/tet_mesh.h"
 #include "layers/offset_points.h"
@@ -357,6 +358,125 @@ TEST(KernelNonOrthogonality, PointsMissingFloorsAreThePointsOfTheCellsBeyondTheB
                                            tet_min_dihedral_deg({0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {6, 0, -1})};
     ASSERT_LT(second, first);
     EXPECT_EQ(points_missing_floors(beyond, 0, 0.5 * (first + second), 180.0), (std::vector<int32_t>{0, 1, 2, 4}));
+}
+
+// ---- Light faces -----------------------------------------------------------
+
+// OpenFOAM's interpolation weight of every interior face, both centres the
+// tets' centroids: the smallest.
+double lightest_face(const TetMesh& mesh)
+{
+    const TetFaceAdjacency adjacency = tet_face_adjacency(mesh);
+    const auto centroid = [&](size_t t) {
+        const Tet& x = mesh.tets[t];
+        return (mesh.points[x[0]] + mesh.points[x[1]] + mesh.points[x[2]] + mesh.points[x[3]]) / 4;
+    };
+    double lightest = 1;
+    for (size_t t = 0; t < mesh.tets.size(); ++t)
+        for (int k = 0; k < 4; ++k) {
+            const int32_t u = adjacency.across[4 * t + k];
+            if (u == TetFaceAdjacency::kBoundary) continue;
+            const Triangle f = tet_face(mesh.tets[t], k);
+            const Vec3 &a = mesh.points[f[0]], &b = mesh.points[f[1]], &c = mesh.points[f[2]];
+            lightest = std::min(lightest, face_interpolation_weight(cross(b - a, c - a), (a + b + c) / 3, centroid(t),
+                                                                    centroid(size_t(u))));
+        }
+    return lightest;
+}
+
+// The regular octahedron (surface points 0-5) coned from an interior point
+// 6 at `inner`: eight tets.
+TetMesh coned_octahedron(const Vec3& inner)
+{
+    std::vector<Vec3> points{{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}, inner};
+    std::vector<Tet> tets;
+    for (int32_t x : {0, 1})
+        for (int32_t y : {2, 3})
+            for (int32_t z : {4, 5}) tets.push_back({x, y, z, 6});
+    return tet_mesh(points, tets);
+}
+
+// The inner point near the face (1, 0, 0), (0, 1, 0), (0, 0, 1): the tet on
+// that face is flat, and its faces to its three neighbours have weights
+// below 0.05. Moving the free point raises them past the target; the
+// surface points stay, every tet stays positive.
+TEST(KernelLightFaces, AFreePointNearAFaceOfItsStarMovesUntilNoFaceIsLight)
+{
+    TetMesh mesh = coned_octahedron({0.326, 0.326, 0.326});
+    const double before = lightest_face(mesh);
+    ASSERT_LT(before, 0.05);
+    const std::vector<Vec3> surface(mesh.points.begin(), mesh.points.begin() + 6);
+    const LightFaceCounts made = mend_light_faces(mesh, 6, 0.06);
+    EXPECT_EQ(made.faces_before, 3);
+    EXPECT_GE(made.moves, 1);
+    EXPECT_EQ(made.faces_after, 0);
+    EXPECT_GE(lightest_face(mesh), 0.06) << "from " << before;
+    EXPECT_EQ(std::vector<Vec3>(mesh.points.begin(), mesh.points.begin() + 6), surface);
+    for (const Tet& t : mesh.tets)
+        EXPECT_GT(tet_volume6(mesh.points[t[0]], mesh.points[t[1]], mesh.points[t[2]], mesh.points[t[3]]), 0);
+}
+
+// A light face whose two apexes lie in one plane with its surface edge (two
+// triangles of a flat cap, 2 far nearer the edge (0, 1) than 3; the free
+// point 4 above the edge): a move of 4 turns the face about that edge, and
+// both apexes' distances from it change by the same factor, so no move
+// changes the weight. Where the two triangles are an opening's (patch 1),
+// the quad's other diagonal (2, 3) takes the edge's place, in the tets and
+// the boundary faces, the cap's plane and the volume unchanged; on the wall
+// (patch 0), or without patches, the face is reported left, nothing moved.
+TEST(KernelLightFaces, ALightFaceOverAFlatCapIsFlippedToTheQuadsOtherDiagonal)
+{
+    const std::vector<Vec3> points{{0, 0, 0}, {1, 0, 0}, {0.5, 0.03, 0}, {0.5, -1, 0}, {0.5, 0, 1}};
+    const TetMesh start = tet_mesh(points, {{0, 1, 2, 4}, {0, 1, 3, 4}});
+    ASSERT_LT(lightest_face(start), 0.05);
+    std::vector<int32_t> cap(start.boundary_faces.size());
+    for (size_t i = 0; i < cap.size(); ++i) {
+        const Triangle& f = start.boundary_faces[i];
+        cap[i] = points[f[0]].z == 0 && points[f[1]].z == 0 && points[f[2]].z == 0;
+    }
+    ASSERT_EQ(std::count(cap.begin(), cap.end(), 1), 2);
+
+    TetMesh flipped = start;
+    const LightFaceCounts made = mend_light_faces(flipped, 4, 0.06, {}, 0, nullptr, cap);
+    EXPECT_EQ(made.faces_before, 1);
+    EXPECT_EQ(made.cap_flips, 1);
+    EXPECT_EQ(made.faces_after, 0);
+    EXPECT_EQ(flipped.points, points);
+    EXPECT_GE(lightest_face(flipped), 0.06);
+    const TetMeshFacts facts = tet_mesh_facts(flipped);
+    EXPECT_EQ(facts.nonpositive_tets, 0);
+    EXPECT_TRUE(facts.boundary_matches);
+    EXPECT_NEAR(facts.volume, tet_mesh_facts(start).volume, 1e-12);
+    for (size_t i = 0; i < cap.size(); ++i) {
+        const Triangle& f = flipped.boundary_faces[i];
+        const bool has_diagonal = std::count(f.begin(), f.end(), 2) + std::count(f.begin(), f.end(), 3) == 2;
+        EXPECT_EQ(has_diagonal, cap[i] == 1) << "boundary face " << i;
+        if (cap[i]) EXPECT_LT(cross(points[f[1]] - points[f[0]], points[f[2]] - points[f[0]]).z, 0) << "faces out";
+    }
+
+    for (const std::vector<int32_t>& patches : {std::vector<int32_t>(cap.size(), 0), std::vector<int32_t>{}}) {
+        TetMesh left = start;
+        const LightFaceCounts none = mend_light_faces(left, 4, 0.06, {}, 0, nullptr, patches);
+        EXPECT_EQ(none.faces_before, 1);
+        EXPECT_EQ(none.cap_flips + none.moves, 0);
+        EXPECT_EQ(none.faces_after, 1);
+        EXPECT_EQ(left.points, points);
+        EXPECT_EQ(left.tets, start.tets);
+    }
+}
+
+// A free point held (a fixed layer point) is not moved.
+TEST(KernelLightFaces, AFixedLayerPointIsNotMoved)
+{
+    TetMesh held = coned_octahedron({0.326, 0.326, 0.326});
+    const std::vector<Vec3> start = held.points;
+    std::vector<LayerBound> layers(7);
+    layers[6].fixed = true;
+    const LightFaceCounts none = mend_light_faces(held, 6, 0.06, layers);
+    EXPECT_EQ(none.faces_before, 3);
+    EXPECT_EQ(none.moves, 0);
+    EXPECT_EQ(none.faces_after, 3);
+    EXPECT_EQ(held.points, start);
 }
 
 // ---- Conditional insertion (Algorithm 5) ---------------------------------

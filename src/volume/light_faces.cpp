@@ -1,0 +1,311 @@
+// Light faces (mend_light_faces, improve.h): an interior face between two
+// tet cells whose interpolation weight is below OpenFOAM's 0.05, mended by
+// moves of the free points of its two tets, each judged on its whole star.
+
+#include "volume/improve.h"
+
+#include "core/adjacency.h"
+#include "core/face_measures.h"
+#include "volume/tet_editor.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numeric>
+#include <optional>
+#include <vector>
+
+namespace scalemesh {
+namespace {
+
+using improvement::cell_shape;
+using improvement::face_links;
+using improvement::FaceLink;
+using improvement::Few;
+using improvement::OrthoFloors;
+using improvement::point_gradient;
+using improvement::Shape;
+using improvement::TetEditor;
+using improvement::within_layer;
+using improvement::worst_cosine;
+
+// The centre of the cell tet t belongs to: its layer prism's (the editor's
+// centres), else its centroid.
+Vec3 cell_centre(const TetEditor& ed, const Tet& t)
+{
+    Vec3 centre;
+    if (ed.centres && ed.centres->of(t, [&](int32_t v) -> const Vec3& { return ed.point(v); }, centre)) return centre;
+    return (ed.point(t[0]) + ed.point(t[1]) + ed.point(t[2]) + ed.point(t[3])) / 4;
+}
+
+// The interpolation weight of the face tets t and `other` share, t's corner
+// off it found, from their cells' centres.
+double shared_face_weight(const TetEditor& ed, const Tet& t, const Tet& other)
+{
+    int k = 0;
+    while (TetEditor::contains(other, t[k])) ++k;
+    const Vec3 &a = ed.point(t[(k + 1) % 4]), &b = ed.point(t[(k + 2) % 4]), &c = ed.point(t[(k + 3) % 4]);
+    return face_interpolation_weight(cross(b - a, c - a), (a + b + c) / 3, cell_centre(ed, t), cell_centre(ed, other));
+}
+
+// Point v's star: its tets and their interior faces, as a move of v sees them.
+struct Star {
+    std::vector<int32_t> ids;
+    std::vector<Tet> tets;
+    std::vector<FaceLink> links;
+    double mean_length = 0;
+};
+
+// The lightest of the interior faces `links` of `tets`.
+double lightest(const TetEditor& ed, const std::vector<Tet>& tets, const std::vector<FaceLink>& links)
+{
+    double w = 1;
+    for (const FaceLink& link : links)
+        w = std::min(w, shared_face_weight(ed, tets[link.i], link.inside >= 0 ? tets[link.inside] : ed.tet(link.outside)));
+    return w;
+}
+
+// The lightest face of the star (its smallest interpolation weight).
+double lightest(const TetEditor& ed, const Star& star) { return lightest(ed, star.tets, star.links); }
+
+// What a move must keep: every tet positive, the aspect ratio floor and
+// the targets of the cell passes (CellPassParams: their margins over the
+// solver's floors), or the star's own worst where it already misses one.
+bool keeps_floors(const Shape& before, const Shape& after, const OrthoFloors& floors, const CellPassParams& targets)
+{
+    const double target_cosine = std::cos(targets.ortho_bound_deg * M_PI / 180);
+    return after.aspect > 0 && after.aspect >= std::min(floors.aspect, before.aspect) &&
+           after.dihedral >= std::min(targets.dihedral_target_deg, before.dihedral) &&
+           after.cosine >= std::min(target_cosine, before.cosine);
+}
+
+// Moves free point v to raise the lightest face of its star: line searches
+// along the gradient of that weight and along the normal of the light face
+// (both ways), by steps of 0.2 down to 0.003 of the star's mean edge
+// length, up to four rounds while they gain. A star with a locked tet is
+// left alone, and one with a face to a locked tet unless the editor has the
+// prisms' centres to measure that face from. True when v moved.
+bool lighten_point(TetEditor& ed, int32_t v, const LayerBound& layer, const Vec3& face_normal,
+                   const OrthoFloors& floors)
+{
+    Star star;
+    star.ids = ed.at(v);
+    for (int32_t t : star.ids) {
+        if (ed.locked(t)) return false;
+        star.tets.push_back(ed.tet(t));
+    }
+    star.links = face_links(ed, star.tets, star.ids);
+    for (const FaceLink& link : star.links)
+        if (link.inside < 0 && ed.locked(link.outside) && !ed.centres) return false;
+    const Vec3 origin = ed.point(v);
+    int corners = 0;
+    for (const Tet& t : star.tets)
+        for (int32_t w : t)
+            if (w != v) star.mean_length += distance(origin, ed.point(w)), ++corners;
+    if (corners == 0) return false;
+    star.mean_length /= corners;
+
+    const CellPassParams targets;
+    const auto shape = [&] {
+        Shape s = cell_shape(ed, star.tets);
+        if (s.aspect > 0) s.cosine = worst_cosine(ed, star.tets, star.links);
+        return s;
+    };
+    const Shape start = shape();
+    if (!(start.aspect > 0)) return false;
+    double best = lightest(ed, star);
+    Vec3 position = origin;
+    for (int round = 0; round < 4; ++round) {
+        ed.point(v) = position;
+        const Vec3 gradient =
+            normalized(point_gradient(ed, v, 1e-4 * star.mean_length, [&] { return lightest(ed, star); }));
+        bool gained = false;
+        Vec3 next = position;
+        for (const Vec3& d : {gradient, face_normal, -face_normal}) {
+            if (!(norm2(d) > 0)) continue;
+            for (double step : {0.2, 0.1, 0.05, 0.025, 0.0125, 0.006, 0.003}) {
+                ed.point(v) = within_layer(layer, position + step * star.mean_length * d);
+                const double w = lightest(ed, star);
+                if (!(w > best + 1e-9) || !keeps_floors(start, shape(), floors, targets)) continue;
+                best = w, next = ed.point(v), gained = true;
+            }
+        }
+        position = next;
+        if (!gained) break;
+    }
+    ed.point(v) = position;
+    return !(position == origin);
+}
+
+struct Face {
+    int32_t t, u;
+};
+
+// The faces between two tets beyond the first `locked` lighter than
+// `target` (t < u), from the mesh's adjacency as the editor was made; the
+// tets' weights read in parallel.
+std::vector<Face> light_faces(const TetEditor& ed, const TetFaceAdjacency& adjacency, int32_t locked, double target)
+{
+    const auto light = [&](int32_t t, int k) {
+        const int32_t u = adjacency.across[4 * size_t(t) + k];
+        return u > t && shared_face_weight(ed, ed.tet(t), ed.tet(u)) < target;
+    };
+    const std::vector<char> marks = improvement::parallel_marks(size_t(locked), ed.size(), [&](size_t i) {
+        for (int k = 0; k < 4; ++k)
+            if (light(int32_t(i), k)) return true;
+        return false;
+    });
+    std::vector<Face> found;
+    for (size_t m = 0; m < marks.size(); ++m)
+        if (marks[m])
+            for (int k = 0; k < 4; ++k) {
+                const auto t = static_cast<int32_t>(locked + m);
+                if (light(t, k)) found.push_back({t, adjacency.across[4 * size_t(t) + k]});
+            }
+    return found;
+}
+
+// The light face of tets t and u over a flat cap (the flip of a boundary
+// quad, which no move of a point mends: see improve.h). `boundary` is the
+// mesh's boundary faces, `patch` their patches, `at` a face's index by its
+// sorted corners. The face has an edge (e0, e1) on which each tet has a
+// boundary face, (e0, e1, a) and (e0, e1, b), both of one opening's patch
+// (not the wall's, 0) and in one plane; the tets are then a pyramid over
+// the quad (e0, a, e1, b) from the face's third corner p. Its other
+// diagonal splits it into (a, b, e0, p) and (a, b, e1, p), the cap's plane
+// unchanged, where both are clearly positive and fill the pyramid (the
+// quad is convex), (a, b) is no edge yet, and the new tets keep what a move
+// keeps (keeps_floors) and have a heavier lightest face. True when flipped.
+bool flip_flat_cap(TetEditor& ed, std::vector<Triangle>& boundary, const std::vector<int32_t>& patch,
+                   const std::map<std::array<int32_t, 3>, size_t>& at, int32_t t, int32_t u)
+{
+    const Tet first = ed.tet(t), second = ed.tet(u);
+    int32_t a = -1, b = -1;
+    Few<int32_t, 3> face;
+    for (int32_t v : first)
+        if (TetEditor::contains(second, v)) face.push_back(v);
+        else a = v;
+    for (int32_t v : second)
+        if (!TetEditor::contains(first, v)) b = v;
+    const auto boundary_face = [&](int32_t x, int32_t y, int32_t z) -> std::optional<size_t> {
+        std::array<int32_t, 3> key{x, y, z};
+        std::sort(key.begin(), key.end());
+        const auto it = at.find(key);
+        return it == at.end() ? std::nullopt : std::optional<size_t>(it->second);
+    };
+    for (int e = 0; e < 3; ++e) {
+        const int32_t e0 = face[e], e1 = face[(e + 1) % 3], p = face[(e + 2) % 3];
+        const std::optional<size_t> i = boundary_face(e0, e1, a), j = boundary_face(e0, e1, b);
+        if (!i || !j || patch[*i] != patch[*j] || patch[*i] == 0) continue;
+        const Vec3 ni = normalized(cross(ed.point(boundary[*i][1]) - ed.point(boundary[*i][0]),
+                                         ed.point(boundary[*i][2]) - ed.point(boundary[*i][0])));
+        const Vec3 nj = normalized(cross(ed.point(boundary[*j][1]) - ed.point(boundary[*j][0]),
+                                         ed.point(boundary[*j][2]) - ed.point(boundary[*j][0])));
+        if (!(dot(ni, nj) > 1 - 1e-9) || !ed.around_edge(a, b).empty()) return false;
+        const auto positive = [&](Tet x) {
+            if (tet_volume6(ed.point(x[0]), ed.point(x[1]), ed.point(x[2]), ed.point(x[3])) < 0) std::swap(x[0], x[1]);
+            return x;
+        };
+        const auto volume6 = [&](const Tet& x) {
+            return tet_volume6(ed.point(x[0]), ed.point(x[1]), ed.point(x[2]), ed.point(x[3]));
+        };
+        const std::vector<Tet> old{first, second}, fresh{positive({a, b, e0, p}), positive({a, b, e1, p})};
+        const double whole = volume6(first) + volume6(second);
+        if (!(volume6(fresh[0]) > 1e-3 * whole && volume6(fresh[1]) > 1e-3 * whole &&
+              std::abs(volume6(fresh[0]) + volume6(fresh[1]) - whole) <= 1e-9 * whole))
+            return false;
+        const std::vector<int32_t> ids{t, u};
+        const std::vector<FaceLink> old_links = face_links(ed, old, ids), links = face_links(ed, fresh, ids);
+        Shape before = cell_shape(ed, old), after = cell_shape(ed, fresh);
+        before.cosine = worst_cosine(ed, old, old_links);
+        after.cosine = worst_cosine(ed, fresh, links);
+        if (!keeps_floors(before, after, OrthoFloors{}, CellPassParams{}) ||
+            !(lightest(ed, fresh, links) > lightest(ed, old, old_links) + 1e-9))
+            return false;
+        ed.replace(ids, fresh);
+        // The cap's two triangles, each facing out as before.
+        const auto outward = [&](Triangle x, const Vec3& n) {
+            const Vec3 m = cross(ed.point(x[1]) - ed.point(x[0]), ed.point(x[2]) - ed.point(x[0]));
+            if (dot(m, n) < 0) std::swap(x[0], x[1]);
+            return x;
+        };
+        boundary[*i] = outward({a, b, e0}, ni);
+        boundary[*j] = outward({a, b, e1}, ni);
+        return true;
+    }
+    return false;
+}
+
+} // namespace
+
+LightFaceCounts mend_light_faces(TetMesh& mesh, int32_t surface_points, double target_weight,
+                                 const std::vector<LayerBound>& layers, int32_t locked_tets, const PrismCells* prisms,
+                                 const std::vector<int32_t>& boundary_patch)
+{
+    LightFaceCounts counts;
+    // The whole mesh as the editor's one part: its points are the mesh's.
+    improvement::CellCentres centres;
+    std::vector<int32_t> identity;
+    if (prisms && !prisms->points.empty()) {
+        identity.resize(mesh.points.size());
+        std::iota(identity.begin(), identity.end(), 0);
+        centres.prisms = prisms;
+        centres.global = &identity;
+        centres.stacked.assign(mesh.points.size(), 0);
+        for (size_t v = 0; v < mesh.points.size() && v < prisms->generator.size(); ++v)
+            if (prisms->generator[v] >= 0) centres.stacked[v] = 1, centres.local.emplace(int32_t(v), int32_t(v));
+    }
+    const auto editor = [&](TetEditor& ed) {
+        if (!centres.prisms) return;
+        ed.centres = &centres;
+    };
+
+    // First the light faces over a flat cap: their boundary quads flipped.
+    {
+        TetEditor ed(mesh, locked_tets);
+        editor(ed);
+        const std::vector<Face> light = light_faces(ed, tet_face_adjacency(mesh), locked_tets, target_weight);
+        counts.faces_before = static_cast<int64_t>(light.size());
+        if (light.empty()) return counts;
+        if (boundary_patch.size() == mesh.boundary_faces.size()) {
+            std::map<std::array<int32_t, 3>, size_t> at;
+            for (size_t i = 0; i < mesh.boundary_faces.size(); ++i) {
+                std::array<int32_t, 3> key = mesh.boundary_faces[i];
+                std::sort(key.begin(), key.end());
+                at.emplace(key, i);
+            }
+            for (const Face& f : light)
+                if (ed.alive(f.t) && ed.alive(f.u) && flip_flat_cap(ed, mesh.boundary_faces, boundary_patch, at, f.t, f.u))
+                    ++counts.cap_flips;
+            if (counts.cap_flips > 0) ed.commit();
+        }
+    }
+
+    // Then moves of the free points of the rest.
+    const TetFaceAdjacency adjacency = tet_face_adjacency(mesh);
+    TetEditor ed(mesh, locked_tets);
+    editor(ed);
+    const OrthoFloors floors;
+    for (const Face& f : light_faces(ed, adjacency, locked_tets, target_weight)) {
+        // The face's normal, from its three shared corners.
+        const Tet t = ed.tet(f.t), u = ed.tet(f.u);
+        std::vector<int32_t> face;
+        for (int32_t v : t)
+            if (TetEditor::contains(u, v)) face.push_back(v);
+        const Vec3 normal = normalized(cross(ed.point(face[1]) - ed.point(face[0]), ed.point(face[2]) - ed.point(face[0])));
+        for (const Tet& tet : {t, u})
+            for (int32_t v : tet) {
+                if (shared_face_weight(ed, ed.tet(f.t), ed.tet(f.u)) >= target_weight) break;
+                const bool fixed = v < surface_points || (size_t(v) < layers.size() && layers[v].fixed);
+                const LayerBound layer = size_t(v) < layers.size() ? layers[v] : LayerBound{};
+                if (!fixed && lighten_point(ed, v, layer, normal, floors)) ++counts.moves;
+            }
+    }
+    // A move raises its star's lightest face, so no face of the star ends
+    // below where that one was; but one may end below the target, so the
+    // faces left are counted afresh (no tet was replaced: the same adjacency).
+    counts.faces_after = static_cast<int64_t>(light_faces(ed, adjacency, locked_tets, target_weight).size());
+    return counts;
+}
+
+} // namespace scalemesh
