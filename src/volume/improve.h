@@ -270,32 +270,39 @@ CellCounts improve_cells(TetMesh& mesh, int32_t surface_points, const CellPassPa
 
 // OpenFOAM's interpolation weight of a face (face_interpolation_weight,
 // core/face_measures.h), which checkMesh -allGeometry fails below 0.05, is
-// small where one tet's centroid lies near the face's plane against the
-// other's: a flattish tet next to a tall one. Neither the cell passes (their
-// order on shapes has no weight: counting light faces there cost the tube's
-// prism layers) nor the joining of poor tets (no star-shaped union) mend
-// every such face. For each interior face between two tets beyond the first
-// `locked_tets` whose weight (both centres the tets' centroids) is below
-// `target_weight`, the free points of its two tets (not surface points, nor
-// `layers`' fixed ones; a layer point within its ball) are moved, one at a
-// time, to raise the lightest face of the point's star where every tet of
-// it stays positive, above the aspect ratio floor (OrthoFloors) and within
-// the cell passes' targets (CellPassParams: 12 degrees, 65), or its star's
-// own worst where that already misses them. A point with a locked tet in its star is not moved;
-// the faces to locked tets are measured from `prisms`' centres (the layer
-// prisms, as the cell passes measure them), and without them a point with
-// such a face is not moved. Serial: the faces are few, after the passes.
+// small where one cell's centre lies near the face's plane against the
+// other's: a flattish tet next to a tall one. Neither the cell passes
+// (their order on shapes has no weight: counting light faces there cost
+// the exact cylinder its prism layers at M = 14) nor the joining of poor
+// tets (no star-shaped union) mend every such face. mend_light_faces takes
+// each interior face whose weight is below `target_weight` between two
+// tets beyond the first `locked_tets`; not a face to a locked tet (a layer
+// prism's: the moves for those cost a stepped tube its prism layers). The
+// centres are the cells' as the cell passes measure them: a tet's
+// centroid, a layer prism's centre (from `prisms`) for a face of a moved
+// point's star.
 //
-// Before the moves, a light face over a flat cap is flipped: where its two
-// tets each have a boundary face on one edge of it, both of one opening's
-// patch (`boundary_patch`, per mesh.boundary_faces; 0 is the wall's) and in
-// one plane, the tets are a pyramid over that boundary quad, and the light
-// face's weight is the ratio of the quad's two apexes' distances from the
-// shared edge, which no move changes (a thin triangle at a cap's rim). The
+// First, a light face over a flat cap is flipped: where its two tets each
+// have a boundary face on one edge of it, both of one opening's patch
+// (`boundary_patch`, per mesh.boundary_faces; 0 is the wall's) and in one
+// plane, the tets are a pyramid over that boundary quad, and the light
+// face's weight is set by the quad's two apexes' distances from the shared
+// edge alone, which no move changes (a thin triangle at a cap's rim). The
 // quad's other diagonal then takes its place, in the tets and in
 // mesh.boundary_faces (the two ids keep their patch; the cap's plane is
-// unchanged), where the new tets keep what a move keeps and their lightest
-// face is heavier.
+// unchanged), where the quad is convex and the new tets keep what a move
+// keeps with a heavier lightest face.
+//
+// Then the free points of the other faces' tets (not surface points, nor
+// `layers`' fixed ones; a layer point within its bound, a ball or a
+// segment of its normal) are moved, one at a time, to raise the lightest
+// face of the point's star, where every tet of it stays positive, above the
+// aspect ratio floor (OrthoFloors) and within the cell passes' targets
+// (CellPassParams: 12 degrees, 65), or the star's own worst where that
+// already misses them. A point with a locked tet in its star is not moved,
+// nor, without `prisms`, one whose star has a face to a locked tet.
+// Serial: the faces are few, after the passes. Returns the faces below the
+// target before and after, the flips and the moves.
 struct LightFaceCounts {
     int64_t faces_before = 0, faces_after = 0; // faces below the target
     int64_t cap_flips = 0, moves = 0;

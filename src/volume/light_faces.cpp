@@ -1,6 +1,8 @@
 // Light faces (mend_light_faces, improve.h): an interior face between two
-// tet cells whose interpolation weight is below OpenFOAM's 0.05, mended by
-// moves of the free points of its two tets, each judged on its whole star.
+// tets whose interpolation weight is below a
+// target (0.06 in the volume stage, a margin over checkMesh's 0.05), mended
+// by the flip of a flat cap's quad under it or by moves of the free points
+// of its tets, each judged on every tet and face it changes.
 
 #include "volume/improve.h"
 
@@ -9,6 +11,7 @@
 #include "volume/tet_editor.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <numeric>
@@ -141,9 +144,12 @@ struct Face {
     int32_t t, u;
 };
 
-// The faces between two tets beyond the first `locked` lighter than
-// `target` (t < u), from the mesh's adjacency as the editor was made; the
-// tets' weights read in parallel.
+// The faces lighter than `target` between two tets beyond the first
+// `locked` (t < u), from the mesh's adjacency as the editor was made; the
+// tets' weights read in parallel. A face to a locked tet (a layer prism's)
+// is not taken: counting those, the moves for them near the stack cost the
+// stepped tube of the multi-scale study its prism layers (a tet cell of
+// 7.1 degrees, a face of 70.05, in the writer's checks).
 std::vector<Face> light_faces(const TetEditor& ed, const TetFaceAdjacency& adjacency, int32_t locked, double target)
 {
     const auto light = [&](int32_t t, int k) {
@@ -165,6 +171,12 @@ std::vector<Face> light_faces(const TetEditor& ed, const TetFaceAdjacency& adjac
     return found;
 }
 
+// The unit normal of triangle f.
+Vec3 unit_normal(const TetEditor& ed, const Triangle& f)
+{
+    return normalized(cross(ed.point(f[1]) - ed.point(f[0]), ed.point(f[2]) - ed.point(f[0])));
+}
+
 // The light face of tets t and u over a flat cap (the flip of a boundary
 // quad, which no move of a point mends: see improve.h). `boundary` is the
 // mesh's boundary faces, `patch` their patches, `at` a face's index by its
@@ -175,10 +187,12 @@ std::vector<Face> light_faces(const TetEditor& ed, const TetFaceAdjacency& adjac
 // diagonal splits it into (a, b, e0, p) and (a, b, e1, p), the cap's plane
 // unchanged, where both are clearly positive and fill the pyramid (the
 // quad is convex), (a, b) is no edge yet, and the new tets keep what a move
-// keeps (keeps_floors) and have a heavier lightest face. True when flipped.
+// keeps (keeps_floors) and have a heavier lightest face. Each edge of the
+// face is tried. True when flipped.
 bool flip_flat_cap(TetEditor& ed, std::vector<Triangle>& boundary, const std::vector<int32_t>& patch,
                    const std::map<std::array<int32_t, 3>, size_t>& at, int32_t t, int32_t u)
 {
+    if (ed.locked(t) || ed.locked(u)) return false;
     const Tet first = ed.tet(t), second = ed.tet(u);
     int32_t a = -1, b = -1;
     Few<int32_t, 3> face;
@@ -193,44 +207,37 @@ bool flip_flat_cap(TetEditor& ed, std::vector<Triangle>& boundary, const std::ve
         const auto it = at.find(key);
         return it == at.end() ? std::nullopt : std::optional<size_t>(it->second);
     };
+    if (!ed.around_edge(a, b).empty()) return false;
+    const std::vector<Tet> old{first, second};
+    const std::vector<int32_t> ids{t, u};
+    const std::vector<FaceLink> old_links = face_links(ed, old, ids);
+    Shape before = cell_shape(ed, old);
+    before.cosine = worst_cosine(ed, old, old_links);
+    const double whole = ed.volume6(first) + ed.volume6(second);
     for (int e = 0; e < 3; ++e) {
         const int32_t e0 = face[e], e1 = face[(e + 1) % 3], p = face[(e + 2) % 3];
         const std::optional<size_t> i = boundary_face(e0, e1, a), j = boundary_face(e0, e1, b);
         if (!i || !j || patch[*i] != patch[*j] || patch[*i] == 0) continue;
-        const Vec3 ni = normalized(cross(ed.point(boundary[*i][1]) - ed.point(boundary[*i][0]),
-                                         ed.point(boundary[*i][2]) - ed.point(boundary[*i][0])));
-        const Vec3 nj = normalized(cross(ed.point(boundary[*j][1]) - ed.point(boundary[*j][0]),
-                                         ed.point(boundary[*j][2]) - ed.point(boundary[*j][0])));
-        if (!(dot(ni, nj) > 1 - 1e-9) || !ed.around_edge(a, b).empty()) return false;
-        const auto positive = [&](Tet x) {
-            if (tet_volume6(ed.point(x[0]), ed.point(x[1]), ed.point(x[2]), ed.point(x[3])) < 0) std::swap(x[0], x[1]);
-            return x;
-        };
-        const auto volume6 = [&](const Tet& x) {
-            return tet_volume6(ed.point(x[0]), ed.point(x[1]), ed.point(x[2]), ed.point(x[3]));
-        };
-        const std::vector<Tet> old{first, second}, fresh{positive({a, b, e0, p}), positive({a, b, e1, p})};
-        const double whole = volume6(first) + volume6(second);
-        if (!(volume6(fresh[0]) > 1e-3 * whole && volume6(fresh[1]) > 1e-3 * whole &&
-              std::abs(volume6(fresh[0]) + volume6(fresh[1]) - whole) <= 1e-9 * whole))
-            return false;
-        const std::vector<int32_t> ids{t, u};
-        const std::vector<FaceLink> old_links = face_links(ed, old, ids), links = face_links(ed, fresh, ids);
-        Shape before = cell_shape(ed, old), after = cell_shape(ed, fresh);
-        before.cosine = worst_cosine(ed, old, old_links);
+        const Vec3 normal = unit_normal(ed, boundary[*i]);
+        if (!(dot(normal, unit_normal(ed, boundary[*j])) > 1 - 1e-9)) continue;
+        double v0 = 0, v1 = 0;
+        const std::vector<Tet> fresh{improvement::oriented(ed, a, b, e0, p, v0),
+                                     improvement::oriented(ed, a, b, e1, p, v1)};
+        if (!(v0 > 1e-3 * whole && v1 > 1e-3 * whole && std::abs(v0 + v1 - whole) <= 1e-9 * whole)) continue;
+        const std::vector<FaceLink> links = face_links(ed, fresh, ids);
+        Shape after = cell_shape(ed, fresh);
         after.cosine = worst_cosine(ed, fresh, links);
         if (!keeps_floors(before, after, OrthoFloors{}, CellPassParams{}) ||
             !(lightest(ed, fresh, links) > lightest(ed, old, old_links) + 1e-9))
-            return false;
+            continue;
         ed.replace(ids, fresh);
         // The cap's two triangles, each facing out as before.
-        const auto outward = [&](Triangle x, const Vec3& n) {
-            const Vec3 m = cross(ed.point(x[1]) - ed.point(x[0]), ed.point(x[2]) - ed.point(x[0]));
-            if (dot(m, n) < 0) std::swap(x[0], x[1]);
+        const auto outward = [&](Triangle x) {
+            if (dot(unit_normal(ed, x), normal) < 0) std::swap(x[0], x[1]);
             return x;
         };
-        boundary[*i] = outward({a, b, e0}, ni);
-        boundary[*j] = outward({a, b, e1}, ni);
+        boundary[*i] = outward({a, b, e0});
+        boundary[*j] = outward({a, b, e1});
         return true;
     }
     return false;
@@ -243,7 +250,8 @@ LightFaceCounts mend_light_faces(TetMesh& mesh, int32_t surface_points, double t
                                  const std::vector<int32_t>& boundary_patch)
 {
     LightFaceCounts counts;
-    // The whole mesh as the editor's one part: its points are the mesh's.
+    // The layer prisms' centres over the whole mesh, as an editor's one
+    // part: its points are the mesh's.
     improvement::CellCentres centres;
     std::vector<int32_t> identity;
     if (prisms && !prisms->points.empty()) {
@@ -255,19 +263,21 @@ LightFaceCounts mend_light_faces(TetMesh& mesh, int32_t surface_points, double t
         for (size_t v = 0; v < mesh.points.size() && v < prisms->generator.size(); ++v)
             if (prisms->generator[v] >= 0) centres.stacked[v] = 1, centres.local.emplace(int32_t(v), int32_t(v));
     }
-    const auto editor = [&](TetEditor& ed) {
-        if (!centres.prisms) return;
-        ed.centres = &centres;
+    const auto attach_centres = [&](TetEditor& ed) {
+        if (centres.prisms) ed.centres = &centres;
     };
 
     // First the light faces over a flat cap: their boundary quads flipped.
     {
         TetEditor ed(mesh, locked_tets);
-        editor(ed);
+        attach_centres(ed);
         const std::vector<Face> light = light_faces(ed, tet_face_adjacency(mesh), locked_tets, target_weight);
         counts.faces_before = static_cast<int64_t>(light.size());
         if (light.empty()) return counts;
         if (boundary_patch.size() == mesh.boundary_faces.size()) {
+            // Not updated after a flip: the two faces it replaces sit on an
+            // edge no living tet has any more, and the faces it makes are
+            // not in `light`.
             std::map<std::array<int32_t, 3>, size_t> at;
             for (size_t i = 0; i < mesh.boundary_faces.size(); ++i) {
                 std::array<int32_t, 3> key = mesh.boundary_faces[i];
@@ -281,21 +291,23 @@ LightFaceCounts mend_light_faces(TetMesh& mesh, int32_t surface_points, double t
         }
     }
 
-    // Then moves of the free points of the rest.
+    // Then moves of the free points of the rest, a face's tets' points in
+    // turn until it is mended.
     const TetFaceAdjacency adjacency = tet_face_adjacency(mesh);
     TetEditor ed(mesh, locked_tets);
-    editor(ed);
+    attach_centres(ed);
     const OrthoFloors floors;
     for (const Face& f : light_faces(ed, adjacency, locked_tets, target_weight)) {
-        // The face's normal, from its three shared corners.
         const Tet t = ed.tet(f.t), u = ed.tet(f.u);
-        std::vector<int32_t> face;
+        Triangle face{};
+        int corners = 0;
         for (int32_t v : t)
-            if (TetEditor::contains(u, v)) face.push_back(v);
-        const Vec3 normal = normalized(cross(ed.point(face[1]) - ed.point(face[0]), ed.point(face[2]) - ed.point(face[0])));
+            if (TetEditor::contains(u, v)) face[corners++] = v;
+        const Vec3 normal = unit_normal(ed, face);
+        const auto mended = [&] { return shared_face_weight(ed, ed.tet(f.t), ed.tet(f.u)) >= target_weight; };
         for (const Tet& tet : {t, u})
             for (int32_t v : tet) {
-                if (shared_face_weight(ed, ed.tet(f.t), ed.tet(f.u)) >= target_weight) break;
+                if (mended()) break;
                 const bool fixed = v < surface_points || (size_t(v) < layers.size() && layers[v].fixed);
                 const LayerBound layer = size_t(v) < layers.size() ? layers[v] : LayerBound{};
                 if (!fixed && lighten_point(ed, v, layer, normal, floors)) ++counts.moves;

@@ -122,9 +122,9 @@ struct VolumeResult {
                                        // missed 10 degrees of dihedral angle or 70 of non-orthogonality
     int64_t sliver_splits = 0;   // edges of surface-point slivers split by a new interior point
     int64_t light_faces_before = 0, light_face_cap_flips = 0, light_face_moves = 0, light_faces_after = 0;
-                                 // faces between tets of interpolation weight below 0.06 after the cell
-                                 // passes, the flat cap quads flipped and the moves that raised them
-                                 // (mend_light_faces), those left
+                                 // faces between two tets of interpolation weight below 0.06 after the
+                                 // cell passes, the flat cap quads flipped for them,
+                                 // the point moves made for them (mend_light_faces), the faces left
     // seconds_classify is the removal: the surface points' triangulation,
     // inside and outside, the output and the quads put back.
     double seconds_points = 0, seconds_insertion = 0, seconds_classify = 0, seconds_flips = 0,
@@ -162,8 +162,10 @@ public:
 // Guarantees on return: mesh.points[0..n) are surface.points unchanged;
 // mesh.boundary_faces == surface.triangles (same order, same orientation)
 // except at the quad_flips + facet_flips pairs of triangles whose diagonal
-// was flipped to the Delaunay one and the caps_peeled pairs whose flat tet
-// was taken out (each pair keeps its two ids and patch),
+// was flipped to the Delaunay one, the caps_peeled pairs whose flat tet
+// was taken out and the light_face_cap_flips pairs of an opening's flat cap
+// whose diagonal was flipped for a light face (each pair keeps its two ids
+// and patch),
 // boundary_patch == surface.triangle_patch; every tet is positively oriented;
 // the tets fill exactly the region the surface encloses (tet_mesh_facts gives
 // boundary_matches and the enclosed volume to round-off); each surface node's

@@ -19,9 +19,9 @@
 namespace scalemesh {
 namespace {
 
-// A plate one voxel thick (or `voxels`) and 16 mm wide: a medium case
-// (about 60,000 volume points) whose feature size is the thickness
-// everywhere.
+// A plate one voxel thick (or `voxels`) and 16 mm wide whose feature size
+// is the thickness everywhere: a medium case (about 60,000 volume points
+// one voxel thick).
 void write_plate(const TempDir& dir, int voxels = 1)
 {
     write_label_mha(dir.path / "image.mha", {voxels, 32, 32}, 0.5, [](int, int, int) { return true; });
@@ -107,7 +107,8 @@ TEST(MemoryLimit, UnreadableBoundIsRefused)
 }
 
 // Two voxels thick: one voxel's plate gives its prism layers up and is
-// meshed twice (36 s against 8 s).
+// meshed twice (36 s against 8 s), so the estimates are no longer measured
+// on a run that falls back to the Delaunay layers.
 TEST(MemoryLimit, EstimatesWithinAFactorOfTwoOfTheMeasuredPeak)
 {
     const TempDir dir;

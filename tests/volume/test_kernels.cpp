@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <cmath>
 #include <set>
+#include <utility>
 #include <vector>
 
 namespace scalemesh {
@@ -405,6 +406,17 @@ TEST(KernelLightFaces, AFreePointNearAFaceOfItsStarMovesUntilNoFaceIsLight)
     TetMesh mesh = coned_octahedron({0.326, 0.326, 0.326});
     const double before = lightest_face(mesh);
     ASSERT_LT(before, 0.05);
+    const auto worst = [](const TetMesh& m) {
+        std::pair<double, double> aspect_dihedral{1e300, 1e300};
+        for (const Tet& t : m.tets) {
+            const Vec3 &a = m.points[t[0]], &b = m.points[t[1]], &c = m.points[t[2]], &d = m.points[t[3]];
+            aspect_dihedral.first = std::min(aspect_dihedral.first, tet_aspect_ratio(a, b, c, d));
+            aspect_dihedral.second = std::min(aspect_dihedral.second, tet_min_dihedral_deg(a, b, c, d));
+        }
+        return aspect_dihedral;
+    };
+    const auto [aspect_before, dihedral_before] = worst(mesh);
+    const double ortho_before = max_non_orthogonality_deg(mesh, tet_face_adjacency(mesh));
     const std::vector<Vec3> surface(mesh.points.begin(), mesh.points.begin() + 6);
     const LightFaceCounts made = mend_light_faces(mesh, 6, 0.06);
     EXPECT_EQ(made.faces_before, 3);
@@ -414,6 +426,12 @@ TEST(KernelLightFaces, AFreePointNearAFaceOfItsStarMovesUntilNoFaceIsLight)
     EXPECT_EQ(std::vector<Vec3>(mesh.points.begin(), mesh.points.begin() + 6), surface);
     for (const Tet& t : mesh.tets)
         EXPECT_GT(tet_volume6(mesh.points[t[0]], mesh.points[t[1]], mesh.points[t[2]], mesh.points[t[3]]), 0);
+    // What a move keeps: the aspect ratio floor and the passes' targets
+    // (12 and 65 degrees), or the mesh's own worst where it missed them.
+    const auto [aspect_after, dihedral_after] = worst(mesh);
+    EXPECT_GE(aspect_after, std::min(0.1, aspect_before));
+    EXPECT_GE(dihedral_after, std::min(12.0, dihedral_before));
+    EXPECT_LE(max_non_orthogonality_deg(mesh, tet_face_adjacency(mesh)), std::max(65.0, ortho_before) + 1e-9);
 }
 
 // A light face whose two apexes lie in one plane with its surface edge (two
@@ -463,6 +481,28 @@ TEST(KernelLightFaces, ALightFaceOverAFlatCapIsFlippedToTheQuadsOtherDiagonal)
         EXPECT_EQ(left.points, points);
         EXPECT_EQ(left.tets, start.tets);
     }
+}
+
+// A light face over two cap triangles whose quad is not convex (2 beyond
+// the edge (0, 1)'s end, so the diagonal (2, 3) misses the edge): the flip
+// would not fill the pyramid, and is not made; no move changes the weight.
+TEST(KernelLightFaces, ALightFaceOverANonConvexCapQuadIsNotFlipped)
+{
+    const std::vector<Vec3> points{{0, 0, 0}, {1, 0, 0}, {1.5, 0.001, 0}, {0.5, -1, 0}, {0.5, 0, 1}};
+    const TetMesh start = tet_mesh(points, {{0, 1, 2, 4}, {0, 1, 3, 4}});
+    ASSERT_LT(lightest_face(start), 0.05);
+    std::vector<int32_t> cap(start.boundary_faces.size());
+    for (size_t i = 0; i < cap.size(); ++i) {
+        const Triangle& f = start.boundary_faces[i];
+        cap[i] = points[f[0]].z == 0 && points[f[1]].z == 0 && points[f[2]].z == 0;
+    }
+    TetMesh left = start;
+    const LightFaceCounts none = mend_light_faces(left, 4, 0.06, {}, 0, nullptr, cap);
+    EXPECT_EQ(none.faces_before, 1);
+    EXPECT_EQ(none.cap_flips + none.moves, 0);
+    EXPECT_EQ(none.faces_after, 1);
+    EXPECT_EQ(left.tets, start.tets);
+    EXPECT_EQ(left.boundary_faces, start.boundary_faces);
 }
 
 // A free point held (a fixed layer point) is not moved.

@@ -106,7 +106,7 @@ TEST_P(VolumePhantom, ConformingPositiveOfTheSurfacesTopologyAndAboveTheQualityF
     ASSERT_EQ(mesh.boundary_faces.size(), p.surface.triangles.size());
     int64_t changed = 0;
     for (size_t t = 0; t < p.surface.triangles.size(); ++t) changed += mesh.boundary_faces[t] != p.surface.triangles[t];
-    EXPECT_LE(changed, 2 * (r.quad_flips + r.facet_flips + r.caps_peeled));
+    EXPECT_LE(changed, 2 * (r.quad_flips + r.facet_flips + r.caps_peeled + r.light_face_cap_flips));
     SurfaceMesh bounded = p.surface;
     bounded.triangles = mesh.boundary_faces;
     const double enclosed = signed_volume(bounded);
@@ -269,8 +269,10 @@ TEST(VolumeLayers, EdgeFirstLayerRealisesTheAnisotropyKAndKeepsTheLayers)
 
 // The layers are inserted by parallel tasks in slabs (delaunay_insertion.h):
 // the tasks insert most points themselves, and one thread and two give the
-// same mesh, point for point and tet for tet. The improvement after it has
-// its own tests on one and two threads below.
+// same mesh, point for point and tet for tet. Of the improvement after it,
+// the flips with sliver removal and the cell passes have their own tests on
+// one and two threads below; the whole run's are
+// Reproducible.OneThreadGivesByteIdenticalFilesAndTwoThreadsTheSame.
 TEST(VolumeParallel, TheTasksInsertMostPointsAndOneOrTwoThreadsGiveTheSameMesh)
 {
     const Prepared p = prepare("torus", 0.5, 0.25, 4);
