@@ -126,8 +126,9 @@ TEST_P(SampleCase, RunsAndMeetsItsExpectedBounds)
         ASSERT_TRUE(report["openfoam"]["max_non_orthogonality_deg"].is_number()) << report["openfoam"].dump();
         EXPECT_NEAR(report["openfoam"]["max_non_orthogonality_deg"].get<double>(), worst, 1e-4)
                 << "report.json's worst face against checkMesh's";
-        if (const auto bound = expected["volume"]["max_non_orthogonality_deg"].value<double>())
+        if (const auto bound = expected["volume"]["max_non_orthogonality_deg"].value<double>()) {
             EXPECT_LT(worst, *bound) << "checkMesh's worst face non-orthogonality";
+        }
         // OpenFOAM's checks as the run made them before writing: the same
         // worst skewness as checkMesh's, and no face it would fail.
         const nlohmann::json& checks = report["openfoam"]["checks"];
@@ -146,17 +147,22 @@ TEST_P(SampleCase, RunsAndMeetsItsExpectedBounds)
             << all_text;
         EXPECT_NEAR(checks["min_interpolation_weight"].get<double>(), std::stod(weight[1]), 1e-6)
             << "report.json's smallest interpolation weight against checkMesh's";
+        // How many faces or cells checkMesh -allGeometry fails by a check:
+        // the count its failure line gives, else 0 where it says the check
+        // is OK.
+        const auto failed_by = [&](const std::string& failure, const std::string& ok) -> int64_t {
+            std::smatch found;
+            if (std::regex_search(all_text, found, std::regex(failure + R"( found, number of (?:faces|cells): ([0-9]+))")))
+                return std::stoll(found[1]);
+            EXPECT_NE(all_text.find(ok), std::string::npos) << all_text;
+            return 0;
+        };
         // Faces checkMesh -allGeometry fails for their weight (below 0.05):
         // none where mend_light_faces' cap flips and moves mend them, so
         // none but as many as the case allows ([volume] max_light_faces).
-        int64_t light = 0;
-        std::smatch light_found;
-        if (std::regex_search(all_text, light_found,
-                              std::regex(R"(Faces with small interpolation weight \(< 0.05\) found, number of faces: ([0-9]+))")))
-            light = std::stoll(light_found[1]);
-        else
-            EXPECT_NE(all_text.find("Face interpolation weight check OK."), std::string::npos) << all_text;
-        EXPECT_LE(light, expected["volume"]["max_light_faces"].value_or(int64_t{0})) << "faces of small weight";
+        EXPECT_LE(failed_by(R"(Faces with small interpolation weight \(< 0.05\))", "Face interpolation weight check OK."),
+                  expected["volume"]["max_light_faces"].value_or(int64_t{0}))
+            << "faces of small weight";
         // Cells checkMesh -allGeometry fails for their determinant: where
         // the layers are prisms, a tet cell below 0.002 is joined to a
         // neighbour (PoorTetBounds::min_determinant), so none but as many
@@ -164,14 +170,8 @@ TEST_P(SampleCase, RunsAndMeetsItsExpectedBounds)
         // that no star-shaped union with their neighbours takes). The
         // Delaunay layers' tets are cells as they are.
         if (report["volume"]["layers_built"] == "prisms") {
-            int64_t small = 0;
-            std::smatch found;
-            if (std::regex_search(all_text, found,
-                                  std::regex(R"(Cells with small determinant \(< 0.001\) found, number of cells: ([0-9]+))")))
-                small = std::stoll(found[1]);
-            else
-                EXPECT_NE(all_text.find("Cell determinant check OK."), std::string::npos) << all_text;
-            EXPECT_LE(small, expected["volume"]["max_small_determinant_cells"].value_or(int64_t{0}))
+            EXPECT_LE(failed_by(R"(Cells with small determinant \(< 0.001\))", "Cell determinant check OK."),
+                      expected["volume"]["max_small_determinant_cells"].value_or(int64_t{0}))
                 << "cells of small determinant";
         }
         // checkMesh works in metres, the report in mm.
@@ -194,8 +194,9 @@ TEST_P(SampleCase, RunsAndMeetsItsExpectedBounds)
             else if (k == "min_aspect_ratio" || k == "max_fraction_below_0_1") {
                 const nlohmann::json& foam = report.contains("openfoam") ? report["openfoam"] : nlohmann::json();
                 const bool cells = foam.is_object() && foam["tet_cells_min_aspect_ratio"].is_number();
-                if (report["parameters"]["layers"] == "prisms")
+                if (report["parameters"]["layers"] == "prisms") {
                     EXPECT_TRUE(cells) << "prism layers written as cells: the floors are the tet cells'";
+                }
                 if (k == "min_aspect_ratio")
                     EXPECT_GE(cells ? foam["tet_cells_min_aspect_ratio"].get<double>()
                                     : v["quality_after_sliver_removal"]["min_aspect_ratio"].get<double>(),

@@ -434,6 +434,21 @@ TEST(KernelLightFaces, AFreePointNearAFaceOfItsStarMovesUntilNoFaceIsLight)
     EXPECT_LE(max_non_orthogonality_deg(mesh, tet_face_adjacency(mesh)), std::max(65.0, ortho_before) + 1e-9);
 }
 
+// The tets (0, 1, 2, 4) and (0, 1, 3, 4) of `points`, joined at the face
+// (0, 1, 4) and standing on the triangles (0, 1, 2) and (0, 1, 3) in z = 0,
+// and the patches of the mesh's boundary faces: 1 for those two (an
+// opening's cap), 0 for the others.
+std::pair<TetMesh, std::vector<int32_t>> two_tets_on_a_cap(const std::vector<Vec3>& points)
+{
+    TetMesh mesh = tet_mesh(points, {{0, 1, 2, 4}, {0, 1, 3, 4}});
+    std::vector<int32_t> cap(mesh.boundary_faces.size());
+    for (size_t i = 0; i < cap.size(); ++i) {
+        const Triangle& f = mesh.boundary_faces[i];
+        cap[i] = points[f[0]].z == 0 && points[f[1]].z == 0 && points[f[2]].z == 0;
+    }
+    return {std::move(mesh), std::move(cap)};
+}
+
 // A light face whose two apexes lie in one plane with its surface edge (two
 // triangles of a flat cap, 2 far nearer the edge (0, 1) than 3; the free
 // point 4 above the edge): a move of 4 turns the face about that edge, and
@@ -445,13 +460,8 @@ TEST(KernelLightFaces, AFreePointNearAFaceOfItsStarMovesUntilNoFaceIsLight)
 TEST(KernelLightFaces, ALightFaceOverAFlatCapIsFlippedToTheQuadsOtherDiagonal)
 {
     const std::vector<Vec3> points{{0, 0, 0}, {1, 0, 0}, {0.5, 0.03, 0}, {0.5, -1, 0}, {0.5, 0, 1}};
-    const TetMesh start = tet_mesh(points, {{0, 1, 2, 4}, {0, 1, 3, 4}});
+    const auto [start, cap] = two_tets_on_a_cap(points);
     ASSERT_LT(lightest_face(start), 0.05);
-    std::vector<int32_t> cap(start.boundary_faces.size());
-    for (size_t i = 0; i < cap.size(); ++i) {
-        const Triangle& f = start.boundary_faces[i];
-        cap[i] = points[f[0]].z == 0 && points[f[1]].z == 0 && points[f[2]].z == 0;
-    }
     ASSERT_EQ(std::count(cap.begin(), cap.end(), 1), 2);
 
     TetMesh flipped = start;
@@ -469,7 +479,9 @@ TEST(KernelLightFaces, ALightFaceOverAFlatCapIsFlippedToTheQuadsOtherDiagonal)
         const Triangle& f = flipped.boundary_faces[i];
         const bool has_diagonal = std::count(f.begin(), f.end(), 2) + std::count(f.begin(), f.end(), 3) == 2;
         EXPECT_EQ(has_diagonal, cap[i] == 1) << "boundary face " << i;
-        if (cap[i]) EXPECT_LT(cross(points[f[1]] - points[f[0]], points[f[2]] - points[f[0]]).z, 0) << "faces out";
+        if (cap[i]) {
+            EXPECT_LT(cross(points[f[1]] - points[f[0]], points[f[2]] - points[f[0]]).z, 0) << "faces out";
+        }
     }
 
     for (const std::vector<int32_t>& patches : {std::vector<int32_t>(cap.size(), 0), std::vector<int32_t>{}}) {
@@ -489,13 +501,8 @@ TEST(KernelLightFaces, ALightFaceOverAFlatCapIsFlippedToTheQuadsOtherDiagonal)
 TEST(KernelLightFaces, ALightFaceOverANonConvexCapQuadIsNotFlipped)
 {
     const std::vector<Vec3> points{{0, 0, 0}, {1, 0, 0}, {1.5, 0.001, 0}, {0.5, -1, 0}, {0.5, 0, 1}};
-    const TetMesh start = tet_mesh(points, {{0, 1, 2, 4}, {0, 1, 3, 4}});
+    const auto [start, cap] = two_tets_on_a_cap(points);
     ASSERT_LT(lightest_face(start), 0.05);
-    std::vector<int32_t> cap(start.boundary_faces.size());
-    for (size_t i = 0; i < cap.size(); ++i) {
-        const Triangle& f = start.boundary_faces[i];
-        cap[i] = points[f[0]].z == 0 && points[f[1]].z == 0 && points[f[2]].z == 0;
-    }
     TetMesh left = start;
     const LightFaceCounts none = mend_light_faces(left, 4, 0.06, {}, 0, nullptr, cap);
     EXPECT_EQ(none.faces_before, 1);
