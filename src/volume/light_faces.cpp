@@ -21,34 +21,25 @@
 namespace scalemesh {
 namespace {
 
-using improvement::cell_shape;
 using improvement::face_links;
 using improvement::FaceLink;
 using improvement::Few;
 using improvement::OrthoFloors;
 using improvement::point_gradient;
 using improvement::Shape;
+using improvement::shape_of;
 using improvement::TetEditor;
 using improvement::within_layer;
-using improvement::worst_cosine;
 
-// The centre of the cell tet t belongs to: its layer prism's (the editor's
-// centres), else its centroid.
-Vec3 cell_centre(const TetEditor& ed, const Tet& t)
-{
-    Vec3 centre;
-    if (ed.centres && ed.centres->of(t, [&](int32_t v) -> const Vec3& { return ed.point(v); }, centre)) return centre;
-    return (ed.point(t[0]) + ed.point(t[1]) + ed.point(t[2]) + ed.point(t[3])) / 4;
-}
-
-// The interpolation weight of the face tets t and `other` share, t's corner
-// off it found, from their cells' centres.
+// The interpolation weight of the face tets t and `other` share, from their
+// cells' centres (the editor's: a layer prism's, else the tet's centroid).
 double shared_face_weight(const TetEditor& ed, const Tet& t, const Tet& other)
 {
-    int k = 0;
-    while (TetEditor::contains(other, t[k])) ++k;
+    const auto at = [&](int32_t v) -> const Vec3& { return ed.point(v); };
+    const int k = improvement::corner_off(t, other);
     const Vec3 &a = ed.point(t[(k + 1) % 4]), &b = ed.point(t[(k + 2) % 4]), &c = ed.point(t[(k + 3) % 4]);
-    return face_interpolation_weight(cross(b - a, c - a), (a + b + c) / 3, cell_centre(ed, t), cell_centre(ed, other));
+    return face_interpolation_weight(cross(b - a, c - a), (a + b + c) / 3, improvement::cell_centre(at, t, ed.centres),
+                                     improvement::cell_centre(at, other, ed.centres));
 }
 
 // Point v's star: its tets and their interior faces, as a move of v sees them.
@@ -109,11 +100,7 @@ bool lighten_point(TetEditor& ed, int32_t v, const LayerBound& layer, const Vec3
     star.mean_length /= corners;
 
     const CellPassParams targets;
-    const auto shape = [&] {
-        Shape s = cell_shape(ed, star.tets);
-        if (s.aspect > 0) s.cosine = worst_cosine(ed, star.tets, star.links);
-        return s;
-    };
+    const auto shape = [&] { return shape_of(ed, star.tets, star.links); };
     const Shape start = shape();
     if (!(start.aspect > 0)) return false;
     double best = lightest(ed, star);
@@ -211,8 +198,7 @@ bool flip_flat_cap(TetEditor& ed, std::vector<Triangle>& boundary, const std::ve
     const std::vector<Tet> old{first, second};
     const std::vector<int32_t> ids{t, u};
     const std::vector<FaceLink> old_links = face_links(ed, old, ids);
-    Shape before = cell_shape(ed, old);
-    before.cosine = worst_cosine(ed, old, old_links);
+    const Shape before = shape_of(ed, old, old_links);
     const double whole = ed.volume6(first) + ed.volume6(second);
     for (int e = 0; e < 3; ++e) {
         const int32_t e0 = face[e], e1 = face[(e + 1) % 3], p = face[(e + 2) % 3];
@@ -225,9 +211,7 @@ bool flip_flat_cap(TetEditor& ed, std::vector<Triangle>& boundary, const std::ve
                                      improvement::oriented(ed, a, b, e1, p, v1)};
         if (!(v0 > 1e-3 * whole && v1 > 1e-3 * whole && std::abs(v0 + v1 - whole) <= 1e-9 * whole)) continue;
         const std::vector<FaceLink> links = face_links(ed, fresh, ids);
-        Shape after = cell_shape(ed, fresh);
-        after.cosine = worst_cosine(ed, fresh, links);
-        if (!keeps_floors(before, after, OrthoFloors{}, CellPassParams{}) ||
+        if (!keeps_floors(before, shape_of(ed, fresh, links), OrthoFloors{}, CellPassParams{}) ||
             !(lightest(ed, fresh, links) > lightest(ed, old, old_links) + 1e-9))
             continue;
         ed.replace(ids, fresh);

@@ -288,13 +288,30 @@ double volume_floor6(const TetEditor& ed, const Tets& tets)
 // prism it fills (the prism's centre); 1 for two tets of one prism. The
 // measure of the cell passes (cell_passes.cpp); points_missing_floors, which
 // picks the cells for the passes' last round, measures tets alone.
+// The centre of the cell tet t belongs to, points read through at(id):
+// with `centres` the layer prism it fills (the prism's centre, its key in
+// *key), else the tet itself (its centroid; *key left as it is).
+template <class At>
+Vec3 cell_centre(const At& at, const Tet& t, const CellCentres* centres, int64_t* key = nullptr)
+{
+    Vec3 centre;
+    if (centres && centres->of(t, at, centre, key)) return centre;
+    return 0.25 * (at(t[0]) + at(t[1]) + at(t[2]) + at(t[3]));
+}
+
+// The corner of tet t off the face it shares with `other`.
+inline int corner_off(const Tet& t, const Tet& other)
+{
+    int k = 0;
+    while (TetEditor::contains(other, t[k])) ++k;
+    return k;
+}
+
 template <class At>
 double face_cosine(const At& at, const Tet& t, int k, const Tet& other, const CellCentres* centres = nullptr)
 {
     int64_t key_t = -1, key_o = -2;
-    Vec3 from, to;
-    if (!(centres && centres->of(t, at, from, &key_t))) from = 0.25 * (at(t[0]) + at(t[1]) + at(t[2]) + at(t[3]));
-    if (!(centres && centres->of(other, at, to, &key_o))) to = 0.25 * (at(other[0]) + at(other[1]) + at(other[2]) + at(other[3]));
+    const Vec3 from = cell_centre(at, t, centres, &key_t), to = cell_centre(at, other, centres, &key_o);
     if (key_t == key_o) return 1.0; // two tets of one cell
     const Vec3& a = at(t[(k + 1) % 4]);
     Vec3 normal = cross(at(t[(k + 2) % 4]) - a, at(t[(k + 3) % 4]) - a);
@@ -306,9 +323,7 @@ double face_cosine(const At& at, const Tet& t, int k, const Tet& other, const Ce
 template <class At>
 double shared_face_cosine(const At& at, const Tet& t, const Tet& other, const CellCentres* centres = nullptr)
 {
-    int k = 0;
-    while (TetEditor::contains(other, t[k])) ++k;
-    return face_cosine(at, t, k, other, centres);
+    return face_cosine(at, t, corner_off(t, other), other, centres);
 }
 
 // An interior face of tets[i] (the face opposite its corner k) and the tet
