@@ -452,6 +452,7 @@ std::string report_json(const CaseConfig& config, const PipelineRun& run, const 
         const auto ratio = std::find_if(fields.begin(), fields.end(),
                                         [](const VertexField& f) { return f.name == "edge_length_ratio"; });
         report["remeshing"] = {{"merges", r.merges},
+                               {"merges_in_cubes", r.cube_merges},
                                {"swaps", r.swaps},
                                {"bisections", r.bisections},
                                {"max_damage_mm", r.max_damage},

@@ -153,6 +153,18 @@ int32_t HalfedgeMesh::split(int32_t h, const Vec3& x)
 
 void HalfedgeMesh::collapse(int32_t h)
 {
+    collapse(h, free_faces_);
+    live_faces_ -= 2;
+}
+
+void HalfedgeMesh::release_faces(const std::vector<int32_t>& freed)
+{
+    free_faces_.insert(free_faces_.end(), freed.begin(), freed.end());
+    live_faces_ -= static_cast<int64_t>(freed.size());
+}
+
+void HalfedgeMesh::collapse(int32_t h, std::vector<int32_t>& freed)
+{
     const int32_t g = twin_[h];
     const int32_t i = from(h), j = to(h);
     int32_t k = h;
@@ -177,8 +189,7 @@ void HalfedgeMesh::collapse(int32_t h)
 
     for (int32_t f : {face(h), face(g)}) {
         corner_[3 * f] = corner_[3 * f + 1] = corner_[3 * f + 2] = -1;
-        free_faces_.push_back(f);
-        --live_faces_;
+        freed.push_back(f);
     }
 }
 

@@ -89,6 +89,14 @@ public:
     // to(h), the two faces of the edge die. The caller checks the link
     // condition first; to(h) keeps its position.
     void collapse(int32_t h);
+    // As collapse, but the two faces that die go to `freed` instead of the
+    // mesh's free list, and live_faces() is not updated: collapses in
+    // disjoint regions may run at once (each touches only faces with all
+    // their corners within two edges of from(h)), and hand their faces back
+    // afterwards, in an order of the caller's, with release_faces.
+    void collapse(int32_t h, std::vector<int32_t>& freed);
+    // Puts faces collapse(h, freed) took onto the free list, in order.
+    void release_faces(const std::vector<int32_t>& freed);
     // Swaps the edge of h to join the two vertices opposite it (Fig. 9).
     // The caller checks that the new edge does not exist yet.
     void flip(int32_t h);

@@ -16,6 +16,9 @@
 #include <tuple>
 #include <utility>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 namespace scalemesh {
 
 namespace {
@@ -71,6 +74,9 @@ void validate(const SurfaceMesh& surface, const std::vector<double>& d, const Re
         bad("smoothing sweeps is " + std::to_string(params.smoothing_sweeps), "use a count >= 0 (the paper uses 10)");
     if (!(params.smoothing_omega > 0 && params.smoothing_omega <= 1))
         bad("smoothing omega is " + std::to_string(params.smoothing_omega), "use a value in (0, 1] (the paper uses 0.1)");
+    if (!(params.parallel_merge_cube > 0) || !std::isfinite(params.parallel_merge_cube))
+        bad("parallel_merge_cube is " + std::to_string(params.parallel_merge_cube),
+            "use a side > 0 in target edge lengths (12 by default)");
     if (!(params.max_displacement >= 0) || !std::isfinite(params.max_displacement))
         bad("max_displacement is " + std::to_string(params.max_displacement), "use a distance >= 0 in mm (0: unbounded)");
     const SizingParams& s = params.sizing;
@@ -123,6 +129,8 @@ public:
             // allows.
             const bool last = !rims_.empty() && cycle + 1 == params_.cycles;
             if (last) relax_rims();
+            counts.cube_merges = merge_in_cubes();
+            counts.merges = counts.cube_merges;
             mark_everything();
             int64_t merged = 0, swapped = 0;
             // "Until nothing changes", bounded: on surfaces with degenerate
@@ -149,6 +157,7 @@ public:
             counts.triangles = mesh_.live_faces();
             counts.seconds = seconds_since(start);
             result.merges += counts.merges;
+            result.cube_merges += counts.cube_merges;
             result.swaps += counts.swaps;
             result.bisections += counts.bisections;
             result.cycles.push_back(counts);
@@ -205,6 +214,155 @@ private:
             }
         }
         return merges;
+    }
+
+    // RemeshParams::parallel_merge_vertices: Algorithm 3 in cubes of the
+    // surface at once, twice (the second time on the grid shifted by half a
+    // cube along each axis, so that the first grid's faces lie inside
+    // cubes), before the serial merges. A node merges only while every node
+    // within two edges of it lies in its cube: a merge reads nothing beyond
+    // that (its fans, the link condition, the valences of the edge's two
+    // opposite nodes) and changes only faces whose corners all lie there,
+    // so no two cubes touch the same node, face or half-edge. The dead
+    // faces are handed back in the cubes' order, which keeps every later
+    // face id, and so the result, independent of how the cubes were
+    // scheduled.
+    int64_t merge_in_cubes()
+    {
+        std::vector<int32_t> live;
+        for (int32_t v = 0; v < mesh_.vertex_capacity(); ++v)
+            if (mesh_.vertex_alive(v)) live.push_back(v);
+        if (params_.parallel_merge_vertices <= 0 || live.size() < static_cast<size_t>(params_.parallel_merge_vertices))
+            return 0;
+        // The cube's side: parallel_merge_cube target edge lengths at the
+        // median d, so that a cube holds many merged nodes across and its
+        // band along the faces, where nodes wait for the next grid, is thin.
+        std::vector<double> t;
+        t.reserve(live.size());
+        for (int32_t v : live) t.push_back(criteria_.target(d_[v]));
+        std::nth_element(t.begin(), t.begin() + t.size() / 2, t.end());
+        const double side = params_.parallel_merge_cube * t[t.size() / 2];
+        int64_t merges = 0;
+        for (int shift = 0; shift < 2; ++shift) {
+            std::erase_if(live, [&](int32_t v) { return !mesh_.vertex_alive(v); });
+            Vec3 lo = mesh_.points[live.front()];
+            for (int32_t v : live)
+                for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], mesh_.points[v][a]);
+            // Each live node's cube, as (ix, iy, iz) packed; cubes numbered
+            // in the order of their keys.
+            std::vector<std::pair<int64_t, int32_t>> keyed;
+            keyed.reserve(live.size());
+            for (int32_t v : live) {
+                int64_t key = 0;
+                for (int a = 0; a < 3; ++a)
+                    key = (key << 21) + static_cast<int64_t>(std::floor((mesh_.points[v][a] - lo[a]) / side + 0.5 * shift));
+                keyed.emplace_back(key, v);
+            }
+            std::sort(keyed.begin(), keyed.end());
+            std::vector<int32_t> cube_of(mesh_.vertex_capacity(), -1);
+            std::vector<std::vector<int32_t>> nodes;
+            for (size_t k = 0; k < keyed.size(); ++k) {
+                if (k == 0 || keyed[k].first != keyed[k - 1].first) nodes.emplace_back();
+                cube_of[keyed[k].second] = static_cast<int32_t>(nodes.size() - 1);
+                nodes.back().push_back(keyed[k].second);
+            }
+            if (nodes.size() < 2) continue; // one cube: the serial merges do the same
+            // The nodes with a neighbour in another cube. They stay so while
+            // the cubes merge: such a node never merges away, nor is merged
+            // into (its neighbours would all be its cube's), and a node
+            // gains neighbours only as the survivor of a merge, from the
+            // node merged into it, whose neighbours are all its cube's. So
+            // every node within two edges of i is i's cube's exactly when
+            // neither i nor a neighbour of i is on a cube's rim.
+            std::vector<char> rim(mesh_.vertex_capacity(), 0);
+            for (int32_t h = 0; h < mesh_.halfedge_capacity(); ++h)
+                if (mesh_.face_alive(HalfedgeMesh::face(h)) && cube_of[mesh_.from(h)] != cube_of[mesh_.to(h)])
+                    rim[mesh_.from(h)] = 1;
+            std::vector<CubeMerges> done(nodes.size());
+            std::vector<char> queued(mesh_.vertex_capacity(), 0);
+            tbb::parallel_for(tbb::blocked_range<size_t>(0, nodes.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
+                for (size_t cube = range.begin(); cube != range.end(); ++cube)
+                    done[cube] = merge_in_cube(static_cast<int32_t>(cube), std::move(nodes[cube]), cube_of, rim, queued);
+            });
+            for (const CubeMerges& cube : done) {
+                mesh_.release_faces(cube.freed);
+                merges += cube.merges;
+                max_damage_ = std::max(max_damage_, cube.max_damage);
+            }
+        }
+        return merges;
+    }
+
+    struct CubeMerges {
+        int64_t merges = 0;
+        double max_damage = 0;
+        std::vector<int32_t> freed; // faces the merges killed, in order
+    };
+
+    // merge_nodes within one cube: passes over its nodes (by id) until none
+    // merges, the cube's nodes within two edges of a merge looked at again.
+    // `queued` is shared by all cubes, each writing only its own nodes'
+    // entries.
+    CubeMerges merge_in_cube(int32_t cube, std::vector<int32_t> work, const std::vector<int32_t>& cube_of,
+                             const std::vector<char>& rim, std::vector<char>& queued)
+    {
+        CubeMerges out;
+        Criteria criteria = criteria_; // scratch space of its own
+        const auto mine = [&](int32_t v) { return cube_of[v] == cube; };
+        // Every node within two edges of i in the cube (see `rim`). i's fan
+        // is the cube's, so no other cube's merge changes it meanwhile.
+        const auto inside = [&](int32_t i) {
+            return !rim[i] && mesh_.find_outgoing(i, [&](int32_t h) { return rim[mesh_.to(h)] != 0; }) < 0;
+        };
+        std::vector<int32_t> next;
+        const auto queue = [&](int32_t v) {
+            if (mine(v) && !queued[v]) {
+                queued[v] = 1;
+                next.push_back(v);
+            }
+        };
+        std::vector<std::pair<double, int32_t>> candidates;
+        for (int pass = 0; !work.empty() && pass < kMaxPasses; ++pass) {
+            for (int32_t v : work) queued[v] = 0;
+            for (int32_t i : work) {
+                if (!mesh_.vertex_alive(i)) continue;
+                const double merge_length = 0.5 * criteria.target(d_[i]);
+                candidates.clear();
+                mesh_.find_outgoing(i, [&](int32_t h) {
+                    const double length = distance(mesh_.points[i], mesh_.points[mesh_.to(h)]);
+                    if (length < merge_length) candidates.emplace_back(length, h);
+                    return false; // the whole fan round
+                });
+                if (candidates.empty() || !inside(i)) continue;
+                std::sort(candidates.begin(), candidates.end());
+                for (const auto& [length, edge] : candidates) {
+                    const Check check = criteria.merge(mesh_, d_, params_.conserve_volume ? &drift_ : nullptr, edge);
+                    if (check.verdict != Verdict::accepted) continue;
+                    const int32_t j = mesh_.to(edge);
+                    mesh_.collapse(edge, out.freed);
+                    mesh_.points[j] += check.shift;
+                    drift_[j] += check.shift;
+                    lost_[j] -= check.volume_change;
+                    out.max_damage = std::max(out.max_damage, check.damage);
+                    // As mark_two_ring: the nodes within two edges of j.
+                    mesh_.find_outgoing(j, [&](int32_t h) {
+                        const int32_t k = mesh_.to(h);
+                        queue(k);
+                        mesh_.find_outgoing(k, [&](int32_t g) {
+                            queue(mesh_.to(g));
+                            return false;
+                        });
+                        return false;
+                    });
+                    ++out.merges;
+                    break;
+                }
+            }
+            work.swap(next);
+            next.clear();
+            std::sort(work.begin(), work.end());
+        }
+        return out;
     }
 
     // Fig. 9 with Appendix B, to a fixed point over the dirty faces' edges.

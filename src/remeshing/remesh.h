@@ -50,12 +50,25 @@ struct RemeshParams {
     // the paper's layers (core_mesh.h); bounding the moves further gave the
     // prisms up on the multiscale study's stepped tube.
     bool relax_rims = false;
+    // Merges in parallel: a cycle that starts with at least this many
+    // vertices first merges in the cubes of a grid (of side
+    // parallel_merge_cube target edge lengths K/M d at the median d), all
+    // cubes at once, each node only while every node within two edges of it
+    // lies in its cube; then once more on the grid shifted by half a cube,
+    // so that the nodes left along the first grid's faces merge inside
+    // cubes too; then the serial merges and swaps go on to the fixed point
+    // as without it. The cubes depend on the surface and these two numbers
+    // alone, never on the thread count, so the result is the same on any
+    // number of threads. 0: serial merges only.
+    int32_t parallel_merge_vertices = 65536;
+    double parallel_merge_cube = 12; // > 0
     SizingParams sizing; // recomputes the stable d on the final surface (section 2.1); L_min, L_max required
 };
 
 // What one Algorithm 6 cycle did.
 struct RemeshCycle {
     int64_t merges = 0;
+    int64_t cube_merges = 0; // of merges, those made in cubes at once (RemeshParams::parallel_merge_vertices)
     int64_t swaps = 0;
     int64_t bisections = 0;
     int64_t triangles = 0; // after the cycle's smoothing
@@ -68,6 +81,7 @@ struct RemeshResult {
     std::vector<double> target_d;  // mm per point: the input d carried along (interpolated on bisection)
     FeatureSize sizing;            // recomputed on `surface` with params.sizing: the stable d
     int64_t merges = 0;
+    int64_t cube_merges = 0;      // of merges, those made in cubes at once
     int64_t swaps = 0;
     int64_t bisections = 0;
     double max_damage = 0;         // mm, largest damage of an accepted merge or swap
@@ -77,6 +91,7 @@ struct RemeshResult {
 
 // Algorithm 6, surface part:
 //   for cycle in 1..cycles {
+//     on a large surface, merge_nodes in cubes at once (RemeshParams::parallel_merge_vertices);
 //     do { merge_nodes (Algorithm 3); swap_edges (Fig. 9, Appendix B) } until nothing changes;
 //     bisect_long_edges (Algorithm 2);
 //     smooth_volume_conserving(smoothing_sweeps, smoothing_omega, max_displacement);
@@ -137,7 +152,8 @@ struct RemeshResult {
 // next to a rim node the rims' relaxation moved, whose edges it may
 // lengthen; the last smoothing then moves nodes a little); with conserve_volume the
 // enclosed volume is the input's to round-off. Deterministic for a given
-// input.
+// input and parameters, whatever the number of threads (the cubes' merges
+// run in parallel, the rest is serial).
 //
 // Coarsening stops where the next merge would exceed the damage limit, not
 // only at merge_length: where the surface bends with a radius near d/2 (a

@@ -20,6 +20,7 @@
 #include <CGAL/AABB_triangle_primitive.h>
 #include <CGAL/Simple_cartesian.h>
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
@@ -195,6 +196,40 @@ TEST_P(PaperRegime, EdgesReachTheTargetLength)
 
 INSTANTIATE_TEST_SUITE_P(LargeShapes, PaperRegime, ::testing::Values("sphere", "torus"),
                          [](const auto& info) { return info.param; });
+
+// RemeshParams::parallel_merge_vertices: the merges in the cubes of a
+// grid, all cubes at once, then the serial fixed point. The torus of
+// PaperRegime (9,168 vertices, 28 mm across, t = 1.5 mm where d = L_max)
+// in cubes of 12 t = 18 mm, two across it, then three on the shifted grid.
+// The surface is the same on one thread and on two, the merges in cubes
+// are most of them, and the result keeps what PaperRegime asks of the
+// serial merges.
+TEST(RemeshParallel, MergesInCubesGiveOneSurfaceOnAnyThreadCountAndKeepItsShape)
+{
+    Case c = phantom_case("torus", 0.5, 0.25, 2.5);
+    c.params.parallel_merge_vertices = 1000;
+    const auto remesh_on = [&](int threads) {
+        tbb::task_arena arena(threads);
+        return arena.execute([&] { return remesh_to_feature_size(c.input, c.sizing.d, c.params); });
+    };
+    const RemeshResult one = remesh_on(1);
+    const RemeshResult two = remesh_on(2);
+    ASSERT_EQ(one.surface.triangles, two.surface.triangles);
+    ASSERT_EQ(one.surface.points.size(), two.surface.points.size());
+    for (size_t i = 0; i < one.surface.points.size(); ++i)
+        ASSERT_TRUE(one.surface.points[i] == two.surface.points[i]) << "point " << i;
+    EXPECT_EQ(one.merges, two.merges);
+    EXPECT_GT(one.cube_merges, 0.9 * double(one.merges)) << one.cube_merges << " of " << one.merges;
+    const Figures f = measure(c, two, "torus/cubes");
+    expect_shape_kept(f, "torus/cubes");
+    EXPECT_GE(f.ratio_in_band, 0.90);
+
+    // Below the threshold the merges are the serial ones alone.
+    c.params.parallel_merge_vertices = 0;
+    const RemeshResult serial = remesh_to_feature_size(c.input, c.sizing.d, c.params);
+    EXPECT_EQ(serial.cube_merges, 0);
+    EXPECT_GT(serial.merges, 0);
+}
 
 TEST(RemeshSurface, RealAorta)
 {
@@ -773,6 +808,9 @@ TEST(RemeshInput, BadInputIsRefusedWithAHint)
     SurfaceMesh open = mesh;
     open.triangles.pop_back();
     EXPECT_THROW(remesh_to_feature_size(open, std::vector<double>(open.points.size(), 1.0), params), InputError);
+    params.parallel_merge_cube = 0;
+    EXPECT_THROW(remesh_to_feature_size(mesh, std::vector<double>(mesh.points.size(), 1.0), params), InputError);
+    params.parallel_merge_cube = 12;
     params.cycles = 0;
     const RemeshResult r = remesh_to_feature_size(mesh, std::vector<double>(mesh.points.size(), 1.0), params);
     EXPECT_EQ(r.surface.triangles.size(), mesh.triangles.size());
