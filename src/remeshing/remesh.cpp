@@ -129,8 +129,8 @@ public:
             // allows.
             const bool last = !rims_.empty() && cycle + 1 == params_.cycles;
             if (last) relax_rims();
-            counts.cube_merges = merge_in_cubes();
-            counts.merges = counts.cube_merges;
+            const int64_t cube_merges_before = cube_merges_;
+            in_cubes_ = params_.parallel_merge_vertices > 0 && mesh_.live_faces() / 2 >= params_.parallel_merge_vertices;
             mark_everything();
             int64_t merged = 0, swapped = 0;
             // "Until nothing changes", bounded: on surfaces with degenerate
@@ -154,6 +154,7 @@ public:
                     counts.max_volume_offset = std::max(counts.max_volume_offset, restore_volume());
             }
             smooth();
+            counts.cube_merges = cube_merges_ - cube_merges_before;
             counts.triangles = mesh_.live_faces();
             counts.seconds = seconds_since(start);
             result.merges += counts.merges;
@@ -178,7 +179,7 @@ private:
     // increasing distance and merges into the first one that passes.
     int64_t merge_nodes()
     {
-        int64_t merges = 0;
+        int64_t merges = merge_in_cubes();
         std::vector<std::pair<double, int32_t>> candidates;
         for (int pass = 0; !dirty_vertices_.empty() && pass < kMaxPasses; ++pass) {
             std::vector<int32_t> work;
@@ -216,57 +217,78 @@ private:
         return merges;
     }
 
-    // RemeshParams::parallel_merge_vertices: Algorithm 3 in cubes of the
-    // surface at once, twice (the second time on the grid shifted by half a
-    // cube along each axis, so that the first grid's faces lie inside
-    // cubes), before the serial merges. A node merges only while every node
-    // within two edges of it lies in its cube: a merge reads nothing beyond
-    // that (its fans, the link condition, the valences of the edge's two
-    // opposite nodes) and changes only faces whose corners all lie there,
-    // so no two cubes touch the same node, face or half-edge. The dead
+    // RemeshParams::parallel_merge_vertices: merge_nodes in the cubes of a
+    // grid at once, on the dirty nodes when there are many, twice (the
+    // second time on the grid shifted by half a cube along each axis, so
+    // that the first grid's faces lie inside cubes). A node merges there
+    // only while every node within two edges of it lies in its cube: a
+    // merge reads nothing beyond that (its fans, the link condition, the
+    // valences of the edge's two opposite nodes) and changes only faces
+    // whose corners all lie there, so no two cubes touch the same node,
+    // face or half-edge. What a cube cannot do is left dirty for the serial
+    // merges: its nodes that would merge but lie too near its faces, and
+    // the nodes of other cubes a merge marks (as mark_two_ring). The dead
     // faces are handed back in the cubes' order, which keeps every later
     // face id, and so the result, independent of how the cubes were
-    // scheduled.
+    // scheduled. Returns the merges.
     int64_t merge_in_cubes()
     {
+        constexpr size_t kFewDirty = 2048; // fewer dirty nodes than this: serial merges only
+        if (!in_cubes_ || dirty_vertices_.size() < kFewDirty) return 0;
         std::vector<int32_t> live;
         for (int32_t v = 0; v < mesh_.vertex_capacity(); ++v)
             if (mesh_.vertex_alive(v)) live.push_back(v);
-        if (params_.parallel_merge_vertices <= 0 || live.size() < static_cast<size_t>(params_.parallel_merge_vertices))
-            return 0;
-        // The cube's side: parallel_merge_cube target edge lengths at the
-        // median d, so that a cube holds many merged nodes across and its
-        // band along the faces, where nodes wait for the next grid, is thin.
+        // The cube's side: at most parallel_merge_cube target edge lengths t
+        // at the median d, so that a cube holds many merged nodes across and
+        // its band along the faces, where nodes wait for the next grid, is
+        // thin; but no more than a quarter of the surface's longest side
+        // (a vessel a few t across would otherwise fall into one or two
+        // cubes, one thread's work), and no less than 4 t.
         std::vector<double> t;
         t.reserve(live.size());
         for (int32_t v : live) t.push_back(criteria_.target(d_[v]));
         std::nth_element(t.begin(), t.begin() + t.size() / 2, t.end());
-        const double side = params_.parallel_merge_cube * t[t.size() / 2];
+        const double median_t = t[t.size() / 2];
+        Vec3 lo = mesh_.points[live.front()], hi = lo;
+        for (int32_t v : live)
+            for (int a = 0; a < 3; ++a) {
+                lo[a] = std::min(lo[a], mesh_.points[v][a]);
+                hi[a] = std::max(hi[a], mesh_.points[v][a]);
+            }
+        const double longest = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+        const double side = std::max(4 * median_t, std::min(params_.parallel_merge_cube * median_t, longest / 4));
+
+        std::vector<int32_t> work;
+        work.swap(dirty_vertices_);
+        for (int32_t v : work) vertex_dirty_[v] = 0;
         int64_t merges = 0;
         for (int shift = 0; shift < 2; ++shift) {
             std::erase_if(live, [&](int32_t v) { return !mesh_.vertex_alive(v); });
-            Vec3 lo = mesh_.points[live.front()];
-            for (int32_t v : live)
-                for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], mesh_.points[v][a]);
-            // Each live node's cube, as (ix, iy, iz) packed; cubes numbered
-            // in the order of their keys.
+            // Each live node's cube, (ix, iy, iz) packed; cubes numbered in
+            // the order of their keys.
             std::vector<std::pair<int64_t, int32_t>> keyed;
             keyed.reserve(live.size());
             for (int32_t v : live) {
                 int64_t key = 0;
                 for (int a = 0; a < 3; ++a)
-                    key = (key << 21) + static_cast<int64_t>(std::floor((mesh_.points[v][a] - lo[a]) / side + 0.5 * shift));
+                    key = (key << 21) + std::max<int64_t>(0, static_cast<int64_t>(std::floor(
+                                                               (mesh_.points[v][a] - lo[a]) / side + 0.5 * shift)));
                 keyed.emplace_back(key, v);
             }
             std::sort(keyed.begin(), keyed.end());
             std::vector<int32_t> cube_of(mesh_.vertex_capacity(), -1);
-            std::vector<std::vector<int32_t>> nodes;
+            int32_t cubes = 0;
             for (size_t k = 0; k < keyed.size(); ++k) {
-                if (k == 0 || keyed[k].first != keyed[k - 1].first) nodes.emplace_back();
-                cube_of[keyed[k].second] = static_cast<int32_t>(nodes.size() - 1);
-                nodes.back().push_back(keyed[k].second);
+                if (k > 0 && keyed[k].first != keyed[k - 1].first) ++cubes;
+                cube_of[keyed[k].second] = cubes;
             }
-            if (nodes.size() < 2) continue; // one cube: the serial merges do the same
+            ++cubes;
+            if (cubes < 2) break; // one cube: the serial merges do the same
+            // The dirty nodes by cube, by id within each.
+            std::sort(work.begin(), work.end());
+            std::vector<std::vector<int32_t>> nodes(cubes);
+            for (int32_t v : work)
+                if (mesh_.vertex_alive(v)) nodes[cube_of[v]].push_back(v);
             // The nodes with a neighbour in another cube. They stay so while
             // the cubes merge: such a node never merges away, nor is merged
             // into (its neighbours would all be its cube's), and a node
@@ -278,18 +300,28 @@ private:
             for (int32_t h = 0; h < mesh_.halfedge_capacity(); ++h)
                 if (mesh_.face_alive(HalfedgeMesh::face(h)) && cube_of[mesh_.from(h)] != cube_of[mesh_.to(h)])
                     rim[mesh_.from(h)] = 1;
-            std::vector<CubeMerges> done(nodes.size());
+            std::vector<CubeMerges> done(cubes);
             std::vector<char> queued(mesh_.vertex_capacity(), 0);
-            tbb::parallel_for(tbb::blocked_range<size_t>(0, nodes.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
-                for (size_t cube = range.begin(); cube != range.end(); ++cube)
-                    done[cube] = merge_in_cube(static_cast<int32_t>(cube), std::move(nodes[cube]), cube_of, rim, queued);
+            tbb::parallel_for(tbb::blocked_range<int32_t>(0, cubes, 1), [&](const tbb::blocked_range<int32_t>& range) {
+                for (int32_t cube = range.begin(); cube != range.end(); ++cube)
+                    if (!nodes[cube].empty())
+                        done[cube] = merge_in_cube(cube, std::move(nodes[cube]), cube_of, rim, queued);
             });
+            work.clear();
             for (const CubeMerges& cube : done) {
                 mesh_.release_faces(cube.freed);
                 merges += cube.merges;
                 max_damage_ = std::max(max_damage_, cube.max_damage);
+                work.insert(work.end(), cube.left.begin(), cube.left.end());
+                for (int32_t f : cube.faces)
+                    if (mesh_.face_alive(f)) mark_face(f);
             }
+            std::sort(work.begin(), work.end());
+            work.erase(std::unique(work.begin(), work.end()), work.end());
         }
+        for (int32_t v : work)
+            if (mesh_.vertex_alive(v)) mark_vertex(v);
+        cube_merges_ += merges;
         return merges;
     }
 
@@ -297,12 +329,14 @@ private:
         int64_t merges = 0;
         double max_damage = 0;
         std::vector<int32_t> freed; // faces the merges killed, in order
+        std::vector<int32_t> left;  // nodes left dirty: too near the cube's faces to merge, or another cube's marked
+        std::vector<int32_t> faces; // faces of the survivors' fans, for the swaps
     };
 
-    // merge_nodes within one cube: passes over its nodes (by id) until none
-    // merges, the cube's nodes within two edges of a merge looked at again.
-    // `queued` is shared by all cubes, each writing only its own nodes'
-    // entries.
+    // merge_nodes within one cube from its dirty nodes `work`: passes over
+    // them (by id) until none merges, the cube's nodes within two edges of
+    // a merge looked at again. `queued` is shared by all cubes, each writing
+    // only its own nodes' entries.
     CubeMerges merge_in_cube(int32_t cube, std::vector<int32_t> work, const std::vector<int32_t>& cube_of,
                              const std::vector<char>& rim, std::vector<char>& queued)
     {
@@ -316,7 +350,9 @@ private:
         };
         std::vector<int32_t> next;
         const auto queue = [&](int32_t v) {
-            if (mine(v) && !queued[v]) {
+            if (!mine(v)) {
+                out.left.push_back(v);
+            } else if (!queued[v]) {
                 queued[v] = 1;
                 next.push_back(v);
             }
@@ -333,7 +369,11 @@ private:
                     if (length < merge_length) candidates.emplace_back(length, h);
                     return false; // the whole fan round
                 });
-                if (candidates.empty() || !inside(i)) continue;
+                if (candidates.empty()) continue;
+                if (!inside(i)) {
+                    out.left.push_back(i);
+                    continue;
+                }
                 std::sort(candidates.begin(), candidates.end());
                 for (const auto& [length, edge] : candidates) {
                     const Check check = criteria.merge(mesh_, d_, params_.conserve_volume ? &drift_ : nullptr, edge);
@@ -344,9 +384,11 @@ private:
                     drift_[j] += check.shift;
                     lost_[j] -= check.volume_change;
                     out.max_damage = std::max(out.max_damage, check.damage);
-                    // As mark_two_ring: the nodes within two edges of j.
+                    // As mark_two_ring: the nodes within two edges of j, and
+                    // the faces of j's fan.
                     mesh_.find_outgoing(j, [&](int32_t h) {
                         const int32_t k = mesh_.to(h);
+                        out.faces.push_back(HalfedgeMesh::face(h));
                         queue(k);
                         mesh_.find_outgoing(k, [&](int32_t g) {
                             queue(mesh_.to(g));
@@ -362,6 +404,8 @@ private:
             next.clear();
             std::sort(work.begin(), work.end());
         }
+        // A pass bound reached: what is still queued is left for the serial merges.
+        out.left.insert(out.left.end(), work.begin(), work.end());
         return out;
     }
 
@@ -739,6 +783,8 @@ private:
     Criteria criteria_;
     double volume_; // mm^3 enclosed by the input
     double max_damage_ = 0;
+    int64_t cube_merges_ = 0; // merges made by merge_in_cubes
+    bool in_cubes_ = false;   // this cycle started with parallel_merge_vertices nodes or more
     std::vector<char> vertex_dirty_, face_dirty_;
     std::vector<int32_t> dirty_vertices_, dirty_faces_;
     std::vector<Rim> rims_;         // RemeshParams::relax_rims

@@ -50,14 +50,16 @@ struct RemeshParams {
     // the paper's layers (core_mesh.h); bounding the moves further gave the
     // prisms up on the multiscale study's stepped tube.
     bool relax_rims = false;
-    // Merges in parallel: a cycle that starts with at least this many
-    // vertices first merges in the cubes of a grid (of side
-    // parallel_merge_cube target edge lengths K/M d at the median d), all
-    // cubes at once, each node only while every node within two edges of it
-    // lies in its cube; then once more on the grid shifted by half a cube,
-    // so that the nodes left along the first grid's faces merge inside
-    // cubes too; then the serial merges and swaps go on to the fixed point
-    // as without it. The cubes depend on the surface and these two numbers
+    // Merges in parallel: in a cycle that starts with at least this many
+    // vertices, each merge pass over 2,048 dirty nodes or more first merges
+    // in the cubes of a grid, all cubes at once, each node only while every
+    // node within two edges of it lies in its cube; then once more on the
+    // grid shifted by half a cube, so that the nodes left along the first
+    // grid's faces merge inside cubes too; the nodes left then go to the
+    // serial merges, to the fixed point as without it. The cube's side is
+    // parallel_merge_cube target edge lengths K/M d at the median d, but no
+    // more than a quarter of the surface's longest side and no less than 4
+    // of those lengths. The cubes depend on the surface and these numbers
     // alone, never on the thread count, so the result is the same on any
     // number of threads. 0: serial merges only.
     int32_t parallel_merge_vertices = 65536;

@@ -200,10 +200,10 @@ INSTANTIATE_TEST_SUITE_P(LargeShapes, PaperRegime, ::testing::Values("sphere", "
 // RemeshParams::parallel_merge_vertices: the merges in the cubes of a
 // grid, all cubes at once, then the serial fixed point. The torus of
 // PaperRegime (9,168 vertices, 28 mm across, t = 1.5 mm where d = L_max)
-// in cubes of 12 t = 18 mm, two across it, then three on the shifted grid.
-// The surface is the same on one thread and on two, the merges in cubes
-// are most of them, and the result keeps what PaperRegime asks of the
-// serial merges.
+// in cubes of a quarter of its width, 7 mm. The surface is the same on one
+// thread and on two, the merges in cubes are most of them (6,702 of 8,655
+// when this was written), and the result keeps what PaperRegime asks of
+// the serial merges.
 TEST(RemeshParallel, MergesInCubesGiveOneSurfaceOnAnyThreadCountAndKeepItsShape)
 {
     Case c = phantom_case("torus", 0.5, 0.25, 2.5);
@@ -219,7 +219,7 @@ TEST(RemeshParallel, MergesInCubesGiveOneSurfaceOnAnyThreadCountAndKeepItsShape)
     for (size_t i = 0; i < one.surface.points.size(); ++i)
         ASSERT_TRUE(one.surface.points[i] == two.surface.points[i]) << "point " << i;
     EXPECT_EQ(one.merges, two.merges);
-    EXPECT_GT(one.cube_merges, 0.9 * double(one.merges)) << one.cube_merges << " of " << one.merges;
+    EXPECT_GT(one.cube_merges, 0.5 * double(one.merges)) << one.cube_merges << " of " << one.merges;
     const Figures f = measure(c, two, "torus/cubes");
     expect_shape_kept(f, "torus/cubes");
     EXPECT_GE(f.ratio_in_band, 0.90);
