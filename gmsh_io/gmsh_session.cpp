@@ -9,6 +9,9 @@
 #include <cstdio>
 #include <fstream>
 
+#include <fcntl.h>
+#include <unistd.h>
+
 namespace scalemesh {
 
 namespace {
@@ -110,29 +113,79 @@ void ScratchModel::adopt_views(const std::vector<int>& tags)
     views_.insert(views_.end(), tags.begin(), tags.end());
 }
 
+namespace {
+
+// Appends the bytes of the file `from` past `offset` to the end of the file
+// `to`, by the kernel's copy_file_range (no copy through this process: the
+// .msh of a large mesh is gigabytes), or by reads and writes where the file
+// system does not offer it.
+void append_rest(const std::filesystem::path& from, off_t offset, const std::filesystem::path& to)
+{
+    const int in = ::open(from.c_str(), O_RDONLY | O_CLOEXEC);
+    if (in < 0) throw IoError(from.string(), "cannot reopen the written file");
+    const int out = ::open(to.c_str(), O_WRONLY | O_CLOEXEC);
+    if (out < 0) {
+        ::close(in);
+        throw IoError(to.string(), "cannot reopen the file");
+    }
+    off_t in_at = offset;
+    off_t out_at = ::lseek(out, 0, SEEK_END);
+    bool copied = out_at >= 0;
+    while (copied) {
+        const ssize_t n = ::copy_file_range(in, &in_at, out, &out_at, size_t{1} << 30, 0);
+        if (n == 0) break;
+        if (n < 0) copied = false;
+    }
+    if (!copied) { // EXDEV, ENOSYS, EINVAL: the plain copy from where it stopped
+        char buffer[1 << 16];
+        bool ok = ::lseek(in, in_at, SEEK_SET) >= 0 && ::lseek(out, 0, SEEK_END) >= 0;
+        for (ssize_t n; ok && (n = ::read(in, buffer, sizeof buffer)) != 0;) {
+            ok = n > 0;
+            for (ssize_t done = 0; ok && done < n;) {
+                const ssize_t w = ::write(out, buffer + done, static_cast<size_t>(n - done));
+                ok = w > 0;
+                done += w;
+            }
+        }
+        if (!ok) {
+            ::close(in);
+            ::close(out);
+            throw IoError(to.string(), "cannot write the file");
+        }
+    }
+    ::close(in);
+    if (::close(out) != 0) throw IoError(to.string(), "cannot write the file");
+}
+
+} // namespace
+
 void insert_msh_comments(const std::filesystem::path& path, const std::vector<std::string>& lines)
 {
     std::ifstream in(path, std::ios::binary);
     if (!in) throw IoError(path.string(), "cannot reopen the written file");
     AtomicOutput copy(path); // a second temporary name, removed on failure or interruption
-    std::ofstream out(copy.temporary(), std::ios::binary);
-    if (!out) throw IoError(copy.temporary().string(), "cannot create the file");
-    std::string line;
-    bool inserted = false;
-    while (!inserted && std::getline(in, line)) {
-        out << line << '\n';
-        if (line.rfind("$EndMeshFormat", 0) == 0) {
-            out << "$Comments\n";
-            for (const std::string& comment : lines) out << comment << '\n';
-            out << "$EndComments\n";
-            inserted = true;
+    {
+        std::ofstream out(copy.temporary(), std::ios::binary);
+        if (!out) throw IoError(copy.temporary().string(), "cannot create the file");
+        std::string line;
+        bool inserted = false;
+        while (!inserted && std::getline(in, line)) {
+            out << line << '\n';
+            if (line.rfind("$EndMeshFormat", 0) == 0) {
+                out << "$Comments\n";
+                for (const std::string& comment : lines) out << comment << '\n';
+                out << "$EndComments\n";
+                inserted = true;
+            }
         }
+        if (!inserted) throw IoError(path.string(), "no $EndMeshFormat line: not a .msh file");
+        out.close();
+        if (!out) throw IoError(copy.temporary().string(), "cannot write the file");
     }
-    if (!inserted) throw IoError(path.string(), "no $EndMeshFormat line: not a .msh file");
-    if (in.peek() != std::ifstream::traits_type::eof()) out << in.rdbuf(); // the rest, binary or not, unchanged
-    out.close();
-    if (!out) throw IoError(copy.temporary().string(), "cannot write the file");
+    const std::streamoff rest = in.tellg(); // the rest, binary or not, unchanged
     in.close();
+    if (rest < 0) throw IoError(path.string(), "cannot read the written file");
+    append_rest(path, static_cast<off_t>(rest), copy.temporary());
     copy.commit();
 }
 

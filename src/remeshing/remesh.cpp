@@ -17,6 +17,7 @@
 #include <utility>
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 namespace scalemesh {
@@ -220,17 +221,19 @@ private:
     // RemeshParams::parallel_merge_vertices: merge_nodes in the cubes of a
     // grid at once, on the dirty nodes when there are many, twice (the
     // second time on the grid shifted by half a cube along each axis, so
-    // that the first grid's faces lie inside cubes). A node merges there
-    // only while every node within two edges of it lies in its cube: a
-    // merge reads nothing beyond that (its fans, the link condition, the
-    // valences of the edge's two opposite nodes) and changes only faces
-    // whose corners all lie there, so no two cubes touch the same node,
-    // face or half-edge. What a cube cannot do is left dirty for the serial
-    // merges: its nodes that would merge but lie too near its faces, and
-    // the nodes of other cubes a merge marks (as mark_two_ring). The dead
-    // faces are handed back in the cubes' order, which keeps every later
-    // face id, and so the result, independent of how the cubes were
-    // scheduled. Returns the merges.
+    // that the first grid's faces lie inside cubes). A node i merges there
+    // only while neither it nor a neighbour is on its cube's rim (below),
+    // so every node within two edges of it is its cube's. A cube then reads
+    // only faces with a corner among its nodes and the points of its nodes
+    // and their neighbours, and writes only faces whose corners are all its
+    // nodes (i's fan; the faces beside the edge's two faces, through twins)
+    // and the points, drift and lost volume of its survivors, never a rim
+    // node: what one cube writes, no other reads. What a cube cannot do is
+    // left dirty for the serial merges: its nodes that would merge but lie
+    // on or beside its rim, and the nodes of other cubes a merge marks (as
+    // mark_two_ring). The dead faces are handed back in the cubes' order,
+    // which keeps every later face id, and so the result, independent of
+    // how the cubes were scheduled. Returns the merges.
     int64_t merge_in_cubes()
     {
         constexpr size_t kFewDirty = 2048; // fewer dirty nodes than this: serial merges only
@@ -261,6 +264,8 @@ private:
         std::vector<int32_t> work;
         work.swap(dirty_vertices_);
         for (int32_t v : work) vertex_dirty_[v] = 0;
+        // Scratch space per thread (a verdict never depends on it).
+        tbb::enumerable_thread_specific<Criteria> criteria_of_thread(criteria_);
         int64_t merges = 0;
         for (int shift = 0; shift < 2; ++shift) {
             std::erase_if(live, [&](int32_t v) { return !mesh_.vertex_alive(v); });
@@ -289,13 +294,15 @@ private:
             std::vector<std::vector<int32_t>> nodes(cubes);
             for (int32_t v : work)
                 if (mesh_.vertex_alive(v)) nodes[cube_of[v]].push_back(v);
-            // The nodes with a neighbour in another cube. They stay so while
-            // the cubes merge: such a node never merges away, nor is merged
-            // into (its neighbours would all be its cube's), and a node
-            // gains neighbours only as the survivor of a merge, from the
-            // node merged into it, whose neighbours are all its cube's. So
-            // every node within two edges of i is i's cube's exactly when
-            // neither i nor a neighbour of i is on a cube's rim.
+            // The rim: the nodes with a neighbour in another cube. It stays
+            // the same while the cubes merge: a rim node never merges away,
+            // nor is merged into (the survivor is a neighbour of a node off
+            // the rim, so not on it), and keeps its edges (only the edges at
+            // the merged node change, and no rim node is next to one); a
+            // node off the rim gains only the survivor, or the merged node's
+            // neighbours, all of its own cube. So every node within two
+            // edges of i is i's cube's exactly when neither i nor a
+            // neighbour of i is on the rim.
             std::vector<char> rim(mesh_.vertex_capacity(), 0);
             for (int32_t h = 0; h < mesh_.halfedge_capacity(); ++h)
                 if (mesh_.face_alive(HalfedgeMesh::face(h)) && cube_of[mesh_.from(h)] != cube_of[mesh_.to(h)])
@@ -303,9 +310,10 @@ private:
             std::vector<CubeMerges> done(cubes);
             std::vector<char> queued(mesh_.vertex_capacity(), 0);
             tbb::parallel_for(tbb::blocked_range<int32_t>(0, cubes, 1), [&](const tbb::blocked_range<int32_t>& range) {
+                Criteria& criteria = criteria_of_thread.local();
                 for (int32_t cube = range.begin(); cube != range.end(); ++cube)
                     if (!nodes[cube].empty())
-                        done[cube] = merge_in_cube(cube, std::move(nodes[cube]), cube_of, rim, queued);
+                        done[cube] = merge_in_cube(cube, std::move(nodes[cube]), cube_of, rim, queued, criteria);
             });
             work.clear();
             for (const CubeMerges& cube : done) {
@@ -338,10 +346,9 @@ private:
     // a merge looked at again. `queued` is shared by all cubes, each writing
     // only its own nodes' entries.
     CubeMerges merge_in_cube(int32_t cube, std::vector<int32_t> work, const std::vector<int32_t>& cube_of,
-                             const std::vector<char>& rim, std::vector<char>& queued)
+                             const std::vector<char>& rim, std::vector<char>& queued, Criteria& criteria)
     {
         CubeMerges out;
-        Criteria criteria = criteria_; // scratch space of its own
         const auto mine = [&](int32_t v) { return cube_of[v] == cube; };
         // Every node within two edges of i in the cube (see `rim`). i's fan
         // is the cube's, so no other cube's merge changes it meanwhile.

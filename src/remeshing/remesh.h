@@ -51,7 +51,9 @@ struct RemeshParams {
     // prisms up on the multiscale study's stepped tube.
     bool relax_rims = false;
     // Merges in parallel: in a cycle that starts with at least this many
-    // vertices, each merge pass over 2,048 dirty nodes or more first merges
+    // vertices (live faces / 2), each merge_nodes call (the merges to their
+    // fixed point, once per round of merges and swaps) over 2,048 dirty
+    // nodes or more first merges
     // in the cubes of a grid, all cubes at once, each node only while every
     // node within two edges of it lies in its cube; then once more on the
     // grid shifted by half a cube, so that the nodes left along the first
@@ -61,7 +63,7 @@ struct RemeshParams {
     // more than a quarter of the surface's longest side and no less than 4
     // of those lengths. The cubes depend on the surface and these numbers
     // alone, never on the thread count, so the result is the same on any
-    // number of threads. 0: serial merges only.
+    // number of threads. 0 or less: serial merges only.
     int32_t parallel_merge_vertices = 65536;
     double parallel_merge_cube = 12; // > 0
     SizingParams sizing; // recomputes the stable d on the final surface (section 2.1); L_min, L_max required
@@ -93,13 +95,14 @@ struct RemeshResult {
 
 // Algorithm 6, surface part:
 //   for cycle in 1..cycles {
-//     on a large surface, merge_nodes in cubes at once (RemeshParams::parallel_merge_vertices);
 //     do { merge_nodes (Algorithm 3); swap_edges (Fig. 9, Appendix B) } until nothing changes;
 //     bisect_long_edges (Algorithm 2);
 //     smooth_volume_conserving(smoothing_sweeps, smoothing_omega, max_displacement);
 //   }
 // with relax_rims, the last cycle's rims evened before its merges and after
-// its bisections (the volume it moves given back).
+// its bisections (the volume it moves given back); on a large surface each
+// merge_nodes over many dirty nodes starts in cubes at once
+// (RemeshParams::parallel_merge_vertices).
 // then compute_feature_size on the result with params.sizing.
 //
 // `d` is the feature size (mm) per input point (compute_feature_size(...).d);
@@ -154,8 +157,8 @@ struct RemeshResult {
 // next to a rim node the rims' relaxation moved, whose edges it may
 // lengthen; the last smoothing then moves nodes a little); with conserve_volume the
 // enclosed volume is the input's to round-off. Deterministic for a given
-// input and parameters, whatever the number of threads (the cubes' merges
-// run in parallel, the rest is serial).
+// input and parameters, whatever the number of threads (the cubes' merges,
+// the smoothing and the sizing run in parallel, the rest serially).
 //
 // Coarsening stops where the next merge would exceed the damage limit, not
 // only at merge_length: where the surface bends with a radius near d/2 (a
@@ -168,7 +171,7 @@ struct RemeshResult {
 // Throws InputError when the surface is not a closed, oriented 2-manifold,
 // when d does not hold one finite value >= 0 per point, or when a
 // parameter is out of range (K > 0, M >= 1, cycles >= 0, sweeps >= 0,
-// omega in (0, 1], max_displacement >= 0, sizing L_min/L_max as
+// omega in (0, 1], max_displacement >= 0, parallel_merge_cube > 0, sizing L_min/L_max as
 // compute_feature_size requires), when a patch normal is not finite, or
 // when the points of a patch given as flat lie farther than 1e-6 of the
 // bounding box diagonal from one plane with its normal. Throws StageError
