@@ -30,7 +30,7 @@ namespace scalemesh {
 namespace {
 
 using improvement::CellCentres;
-using improvement::cell_shape;
+using improvement::cell_shape_against;
 using improvement::Criterion;
 using improvement::face_links;
 using improvement::FaceLink;
@@ -47,7 +47,7 @@ using improvement::ShapeOrder;
 using improvement::shared_face_cosine;
 using improvement::split_at;
 using improvement::TetEditor;
-using improvement::with_cosine;
+using improvement::with_cosine_against;
 using improvement::within_layer;
 using improvement::worst_cosine;
 
@@ -192,9 +192,10 @@ bool move_point(TetEditor& ed, int32_t v, const LayerBound& layer, int rounds, c
         Vec3 next = position;
         for (const Vec3& x : candidates) {
             ed.point(v) = x;
-            const Shape s = cell_shape(ed, star.tets); // its cosine only when the rest may beat the best
+            // Its cosine only when the rest may beat the best.
+            const Shape s = cell_shape_against(ed, star.tets, order, best);
             if (!order.may_beat(best, s)) continue;
-            const Shape whole = with_cosine(s, ed, star.tets, star.links);
+            const Shape whole = with_cosine_against(s, ed, star.tets, star.links, order, best);
             if (order.better(best, whole)) best = whole, next = x, gained = true;
         }
         position = next;
@@ -304,9 +305,9 @@ int32_t split_edge_where_better(TetEditor& ed, int32_t q, int32_t s, const Shape
     for (double along : {0.5, 0.35, 0.65})
         for (double w : {0.0, 0.05, 0.1, 0.2, 0.3, 0.4}) {
             ed.point(m) = (1 - w) * ((1 - along) * ed.point(q) + along * ed.point(s)) + w * centroid;
-            const Shape now = cell_shape(ed, fresh);
+            const Shape now = cell_shape_against(ed, fresh, order, best);
             if (!order.may_beat(best, now)) continue;
-            const Shape whole = with_cosine(now, ed, fresh, links);
+            const Shape whole = with_cosine_against(now, ed, fresh, links, order, best);
             if (order.better(best, whole)) best = whole, best_position = ed.point(m), found = true;
         }
     if (!found) {

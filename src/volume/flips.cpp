@@ -49,10 +49,11 @@ bool Flipper::accept(const Old& old, const Fresh& fresh, const Volumes6& fresh6)
         // The face cosines (the faces across the old tets' hull) only where
         // the aspect ratios and dihedral angles let the flip through.
         const ShapeOrder order{criterion_ == Criterion::dihedral, floors_};
-        const Shape before = cell_shape(ed_, old_tets), after = cell_shape(ed_, fresh);
-        return order.may_beat(before, after) &&
-               order.better(with_cosine(before, ed_, old_tets, face_links(ed_, old_tets, old)),
-                            with_cosine(after, ed_, fresh, face_links(ed_, fresh, old)));
+        Shape before = cell_shape(ed_, old_tets);
+        const Shape after = cell_shape_against(ed_, fresh, order, before);
+        if (!order.may_beat(before, after)) return false;
+        before = with_cosine(before, ed_, old_tets, face_links(ed_, old_tets, old));
+        return order.better(before, with_cosine_against(after, ed_, fresh, face_links(ed_, fresh, old), order, before));
     }
     double old_q = 1e300, new_q = 1e300;
     for (const Tet& t : old_tets) old_q = std::min(old_q, ed_.aspect(t));
@@ -131,45 +132,79 @@ bool Flipper::remove_edge(int32_t a, int32_t b, FlipCounts& counts)
     Few<Tet, kMaxRing> old_tets;
     for (int32_t t : around) old_tets.push_back(ed_.tet(t));
     const Shape before = shape_of(ed_, old_tets, face_links(ed_, old_tets, around));
+    const ShapeOrder order{criterion_ == Criterion::dihedral, floors_};
     const double floor6 = volume_floor6(ed_, old_tets);
     Shape best = before;
     RingTets chosen;
     bool found = false;
+    // A triangle of the ring is in many triangulations (35 triangles in the
+    // 42 of a ring of seven): whether its corners are joined by an edge of
+    // the mesh, and its two tets (to a and to b) with their volumes and
+    // measures, are found once, when a triangulation first asks.
+    std::array<std::array<int8_t, kMaxRing>, kMaxRing> joined;
+    for (auto& row : joined) row.fill(-1);
+    const auto has_edge = [&](int p, int q) {
+        if (joined[p][q] < 0) joined[p][q] = ed_.has_edge(c[p], c[q]) ? 1 : 0;
+        return joined[p][q] == 1;
+    };
+    struct Side {
+        Tet tet;
+        double volume6;
+        TetMeasures measures;
+    };
+    struct Triangle {
+        Side a, b;
+        bool turns; // a on one side, b on the other, as the ring turns
+    };
+    std::array<int8_t, kMaxRing * kMaxRing * kMaxRing> slot;
+    slot.fill(-1);
+    Few<Triangle, 35> made;
+    const auto side = [&](int i, int j, int k, int32_t apex) {
+        Side s;
+        s.tet = oriented(ed_, c[i], c[j], c[k], apex, s.volume6);
+        const Tet& t = s.tet;
+        s.measures = tet_measures(ed_.point(t[0]), ed_.point(t[1]), ed_.point(t[2]), ed_.point(t[3]));
+        return s;
+    };
+    const auto triangle = [&](int i, int j, int k) -> const Triangle& {
+        int8_t& at = slot[(i * kMaxRing + j) * kMaxRing + k];
+        if (at < 0) {
+            Triangle t{side(i, j, k, a), side(i, j, k, b), false};
+            // (c_i, c_j, c_k) with i < j < k turns as the ring does: a on
+            // one side, b on the other, the same for every triangle.
+            t.turns = t.a.tet[1] == c[k] && t.b.tet[1] == c[j];
+            at = static_cast<int8_t>(made.size());
+            made.push_back(t);
+        }
+        return made[at];
+    };
     for (const auto& triangles : polygon_triangulations(m)) {
         bool usable = true;
         for (const auto& [i, j, k] : triangles)
             for (const auto& [p, q] : {std::pair{i, j}, std::pair{j, k}, std::pair{i, k}})
-                if (q - p > 1 && !(p == 0 && q == m - 1) && ed_.has_edge(c[p], c[q])) usable = false;
+                if (q - p > 1 && !(p == 0 && q == m - 1) && has_edge(p, q)) usable = false;
         if (!usable) continue;
         RingTets fresh;
-        RingVolumes v6{};
-        // (c_i, c_j, c_k) with i < j < k turns as the ring does: a on one
-        // side, b on the other, the same for every triangle.
-        for (const auto& [i, j, k] : triangles) {
-            const Tet ta = oriented(ed_, c[i], c[j], c[k], a, v6[fresh.size()]);
-            usable = usable && ta[1] == c[k];
-            fresh.push_back(ta);
-            const Tet tb = oriented(ed_, c[i], c[j], c[k], b, v6[fresh.size()]);
-            usable = usable && tb[1] == c[j];
-            fresh.push_back(tb);
-        }
-        if (!usable) continue;
         // The cheap tests first: volumes, aspect ratios, dihedral angles;
         // the face links (for the non-orthogonality) only then.
         double smallest6 = 1e300, aspect = 1e300, dihedral = 1e300;
-        for (size_t k = 0; k < fresh.size(); ++k) {
-            const Tet& t = fresh[k];
-            const TetMeasures m = tet_measures(ed_.point(t[0]), ed_.point(t[1]), ed_.point(t[2]), ed_.point(t[3]));
-            smallest6 = std::min(smallest6, v6[k]);
-            aspect = std::min(aspect, m.aspect_ratio);
-            dihedral = std::min(dihedral, m.min_dihedral_deg);
+        for (const auto& [i, j, k] : triangles) {
+            const Triangle& t = triangle(i, j, k);
+            usable = usable && t.turns;
+            for (const Side* s : {&t.a, &t.b}) {
+                fresh.push_back(s->tet);
+                smallest6 = std::min(smallest6, s->volume6);
+                aspect = std::min(aspect, s->measures.aspect_ratio);
+                dihedral = std::min(dihedral, s->measures.min_dihedral_deg);
+            }
         }
+        if (!usable) continue;
         if (!(smallest6 > floor6) || aspect < std::min(before.aspect, floors_.aspect)) continue;
         if (criterion_ == Criterion::dihedral && !(dihedral > best.dihedral + 1e-6)) continue;
         if (criterion_ == Criterion::orthogonality && dihedral < std::min(before.dihedral, floors_.dihedral)) continue;
-        const Shape now = with_cosine(Shape{1, aspect, dihedral}, ed_, fresh, face_links(ed_, fresh, around));
-        if (criterion_ == Criterion::dihedral ? dihedral_better(best, now, floors_) : ortho_better(best, now, floors_))
-            best = now, chosen = fresh, found = true;
+        const Shape now =
+            with_cosine_against(Shape{1, aspect, dihedral}, ed_, fresh, face_links(ed_, fresh, around), order, best);
+        if (order.better(best, now)) best = now, chosen = fresh, found = true;
     }
     if (!found) return false;
     ed_.replace(around, chosen);

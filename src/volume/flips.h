@@ -38,7 +38,6 @@ private:
     using Volumes = std::array<double, 4>;
     using Ring = Few<int32_t, kMaxRing>;
     using RingTets = Few<Tet, 2 * (kMaxRing - 2)>;    // a ring of m triangulated: 2 (m - 2) tets
-    using RingVolumes = std::array<double, 2 * (kMaxRing - 2)>;
 
     // Whether replacing `old` by `fresh` is worth it; the new tets must all
     // be clearly positive (beyond round-off of their size).

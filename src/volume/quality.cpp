@@ -17,20 +17,17 @@ std::array<Vec3, 4> face_normals(const Vec3& a, const Vec3& b, const Vec3& c, co
     return {cross(c - b, d - b), cross(d - a, c - a), cross(b - a, d - a), cross(c - a, b - a)};
 }
 
-struct Shape {
-    double aspect_ratio, min_dihedral_deg;
-};
-
-// Both measures from one set of face normals. with_dihedral false leaves
-// the angle out (the aspect ratio alone is what the improvement loops ask).
-Shape tet_shape(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, bool with_dihedral)
+// Both measures from one set of face normals, the angle as the cosine
+// dihedral_deg takes. with_dihedral false leaves the angle out (the aspect
+// ratio alone is what the improvement loops ask).
+TetCosineMeasures tet_shape(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, bool with_dihedral)
 {
     const double volume6 = tet_volume6(a, b, c, d);
     const std::array<Vec3, 4> normal = face_normals(a, b, c, d);
     const std::array<double, 4> length = {norm(normal[0]), norm(normal[1]), norm(normal[2]), norm(normal[3])};
     const double area = 0.5 * (length[3] + length[2] + length[1] + length[0]);
     const double l2 = std::max({norm2(b - a), norm2(c - a), norm2(d - a), norm2(c - b), norm2(d - b), norm2(d - c)});
-    Shape shape{0, 0};
+    TetCosineMeasures shape{0, kFlatDihedralCosine};
     if (area > 0 && l2 > 0) {
         const double volume = volume6 / 6.0, r_in = 3.0 * volume / area;
         shape.aspect_ratio = 2.0 * std::sqrt(6.0) * r_in / std::sqrt(l2);
@@ -45,11 +42,16 @@ Shape tet_shape(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, bool
     double largest_cosine = -1.0;
     for (int k = 0; k < 4; ++k)
         for (int l = k + 1; l < 4; ++l) largest_cosine = std::max(largest_cosine, -dot(unit[k], unit[l]));
-    shape.min_dihedral_deg = std::acos(std::clamp(largest_cosine, -1.0, 1.0)) * 180.0 / M_PI;
+    shape.dihedral_cosine = std::clamp(largest_cosine, -1.0, 1.0);
     return shape;
 }
 
 } // namespace
+
+double dihedral_deg(double dihedral_cosine)
+{
+    return dihedral_cosine > 1 ? 0.0 : std::acos(dihedral_cosine) * 180.0 / M_PI;
+}
 
 double tet_aspect_ratio(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d)
 {
@@ -58,13 +60,18 @@ double tet_aspect_ratio(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3&
 
 double tet_min_dihedral_deg(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d)
 {
-    return tet_shape(a, b, c, d, true).min_dihedral_deg;
+    return dihedral_deg(tet_shape(a, b, c, d, true).dihedral_cosine);
 }
 
 TetMeasures tet_measures(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d)
 {
-    const Shape shape = tet_shape(a, b, c, d, true);
-    return {shape.aspect_ratio, shape.min_dihedral_deg};
+    const TetCosineMeasures shape = tet_shape(a, b, c, d, true);
+    return {shape.aspect_ratio, dihedral_deg(shape.dihedral_cosine)};
+}
+
+TetCosineMeasures tet_cosine_measures(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d)
+{
+    return tet_shape(a, b, c, d, true);
 }
 
 QualityReport quality_report(const TetMesh& mesh)
@@ -87,10 +94,10 @@ QualityReport quality_report(const TetMesh& mesh)
         for (size_t i = b * block; i < end; ++i) {
             const Tet& t = mesh.tets[i];
             const Vec3 &a = mesh.points[t[0]], &bb = mesh.points[t[1]], &c = mesh.points[t[2]], &d = mesh.points[t[3]];
-            const Shape shape = tet_shape(a, bb, c, d, true);
+            const TetCosineMeasures shape = tet_shape(a, bb, c, d, true);
             const double q = shape.aspect_ratio;
             p.min_q = std::min(p.min_q, q);
-            p.min_dihedral = std::min(p.min_dihedral, shape.min_dihedral_deg);
+            p.min_dihedral = std::min(p.min_dihedral, dihedral_deg(shape.dihedral_cosine));
             p.sum += q;
             p.low += q < 0.1;
             p.below_0_02 += q < kQualityFloor;

@@ -25,6 +25,20 @@ struct TetMeasures {
 };
 TetMeasures tet_measures(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
 
+// The same with the smallest dihedral angle as the cosine it is computed
+// from: dihedral_deg(dihedral_cosine) is tet_measures' min_dihedral_deg. The
+// angle falls as the cosine grows, so the smallest angle of many tets is
+// the angle of the largest cosine: one acos for a set of tets.
+struct TetCosineMeasures {
+    double aspect_ratio;
+    double dihedral_cosine; // in [-1, 1]; kFlatDihedralCosine for a flat or inverted tet (angle 0)
+};
+constexpr double kFlatDihedralCosine = 2;
+TetCosineMeasures tet_cosine_measures(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
+
+// The angle in degrees of a TetCosineMeasures::dihedral_cosine.
+double dihedral_deg(double dihedral_cosine);
+
 // The aspect ratio below which no tet should be left (what below_0_02 counts).
 constexpr double kQualityFloor = 0.02;
 

@@ -370,8 +370,11 @@ std::vector<FaceLink> face_links(TetEditor& ed, const Tets& tets, const Old& old
 // degenerate. A move of a layer prism's top point is judged on the faces of
 // its own tets; the faces of its prisms' other tets, whose centre it moves
 // too, are left to the export's checks on the cells.
-template <class Tets>
-double worst_cosine(const TetEditor& ed, const Tets& tets, const std::vector<FaceLink>& links)
+// With `enough`, the faces stop being measured once enough(worst so far)
+// holds: the caller has no use for a worse cosine.
+template <class Tets, class Enough = bool (*)(double)>
+double worst_cosine(const TetEditor& ed, const Tets& tets, const std::vector<FaceLink>& links,
+                    Enough enough = [](double) { return false; })
 {
     double worst = 1;
     const auto at = [&](int32_t v) -> const Vec3& { return ed.point(v); };
@@ -380,6 +383,7 @@ double worst_cosine(const TetEditor& ed, const Tets& tets, const std::vector<Fac
         const double cosine = face_cosine(at, tets[link.i], link.k, other, ed.centres);
         if (cosine < -1.5) return -1;
         worst = std::min(worst, cosine);
+        if (enough(worst)) return worst;
     }
     return worst;
 }
@@ -399,6 +403,19 @@ struct Shape {
     double cosine = 1, aspect = 1e300, dihedral = 1e300;
 };
 
+// Tet t's aspect ratio and smallest dihedral angle taken into `s`;
+// `largest` is the largest dihedral cosine taken so far: the angle is
+// worked out only where a tet's cosine is larger (TetCosineMeasures).
+inline void add_to_shape(Shape& s, double& largest, const TetEditor& ed, const Tet& t)
+{
+    const TetCosineMeasures m = tet_cosine_measures(ed.point(t[0]), ed.point(t[1]), ed.point(t[2]), ed.point(t[3]));
+    s.aspect = std::min(s.aspect, m.aspect_ratio);
+    if (m.dihedral_cosine > largest) {
+        largest = m.dihedral_cosine;
+        s.dihedral = std::min(s.dihedral, dihedral_deg(largest));
+    }
+}
+
 // The worst aspect ratio and dihedral angle of `tets`, the cosine not
 // measured (1): the cheap part of shape_of, which the criteria below ask
 // first (the face cosines, across faces, cost the most).
@@ -406,12 +423,8 @@ template <class Tets>
 Shape cell_shape(const TetEditor& ed, const Tets& tets)
 {
     Shape s;
-    for (size_t i = 0; i < tets.size(); ++i) {
-        const Tet& t = tets[i];
-        const TetMeasures m = tet_measures(ed.point(t[0]), ed.point(t[1]), ed.point(t[2]), ed.point(t[3]));
-        s.aspect = std::min(s.aspect, m.aspect_ratio);
-        s.dihedral = std::min(s.dihedral, m.min_dihedral_deg);
-    }
+    double largest = -HUGE_VAL;
+    for (size_t i = 0; i < tets.size(); ++i) add_to_shape(s, largest, ed, tets[i]);
     return s;
 }
 
@@ -474,7 +487,45 @@ struct ShapeOrder {
     {
         return dihedral ? dihedral_better(before, after, floors) : ortho_better(before, after, floors);
     }
+    // Whether a worst face cosine of `cosine` already keeps a shape from
+    // being better than `before`, whatever its other measures.
+    bool cosine_fails(const Shape& before, double cosine) const
+    {
+        if (!dihedral) return !(cosine > before.cosine + 1e-9);
+        const double bound = std::cos(floors.ortho * M_PI / 180);
+        return !(cosine >= std::min(before.cosine, bound) - 1e-12);
+    }
 };
+
+// with_cosine for a shape `s` of `tets` that only counts where
+// order.better(before, it) holds: the faces are measured until their worst
+// cosine rules that out (the worst only falls as faces are added). So the
+// result is with_cosine's wherever order.better holds, and fails it wherever
+// with_cosine's would.
+template <class Tets>
+Shape with_cosine_against(Shape s, const TetEditor& ed, const Tets& tets, const std::vector<FaceLink>& links,
+                          const ShapeOrder& order, const Shape& before)
+{
+    if (s.aspect > 0)
+        s.cosine = worst_cosine(ed, tets, links, [&](double worst) { return order.cosine_fails(before, worst); });
+    return s;
+}
+
+// cell_shape of `tets` as far as order.may_beat(before, it) can still hold:
+// the measuring stops at the first tet that rules it out (the worst of each
+// measure only falls as tets are added). So the result is cell_shape's
+// wherever may_beat holds, and fails may_beat wherever cell_shape's would.
+template <class Tets>
+Shape cell_shape_against(const TetEditor& ed, const Tets& tets, const ShapeOrder& order, const Shape& before)
+{
+    Shape s;
+    double largest = -HUGE_VAL;
+    for (size_t i = 0; i < tets.size(); ++i) {
+        add_to_shape(s, largest, ed, tets[i]);
+        if (!order.may_beat(before, s)) break;
+    }
+    return s;
+}
 
 // Marks [begin, end) by is_marked(t), in parallel: the marks are read by
 // sequential loops, which then decide as if they had asked in turn.
