@@ -189,33 +189,52 @@ private:
             for (int32_t v : work) vertex_dirty_[v] = 0;
             for (int32_t i : work) {
                 if (!mesh_.vertex_alive(i)) continue;
-                const double merge_length = 0.5 * criteria_.target(d_[i]);
-                candidates.clear();
-                const int32_t start = mesh_.outgoing(i);
-                int32_t h = start;
-                do {
-                    const double length = distance(mesh_.points[i], mesh_.points[mesh_.to(h)]);
-                    if (length < merge_length) candidates.emplace_back(length, h);
-                    h = mesh_.rotate(h);
-                } while (h != start);
-                std::sort(candidates.begin(), candidates.end());
-                for (const auto& [length, edge] : candidates) {
-                    const Check check =
-                        criteria_.merge(mesh_, d_, params_.conserve_volume ? &drift_ : nullptr, edge);
-                    if (check.verdict != Verdict::accepted) continue;
-                    const int32_t j = mesh_.to(edge);
-                    mesh_.collapse(edge);
-                    mesh_.points[j] += check.shift;
-                    drift_[j] += check.shift;
-                    lost_[j] -= check.volume_change;
-                    max_damage_ = std::max(max_damage_, check.damage);
-                    mark_two_ring(j);
-                    ++merges;
-                    break;
-                }
+                merge_candidates(i, criteria_, candidates);
+                const int32_t j = merge_first(candidates, criteria_, max_damage_, nullptr);
+                if (j < 0) continue;
+                mark_two_ring(j);
+                ++merges;
             }
         }
         return merges;
+    }
+
+    // The edges out of node i shorter than the merge length (half of K/M d
+    // at i), shortest first, into `out`.
+    void merge_candidates(int32_t i, const Criteria& criteria, std::vector<std::pair<double, int32_t>>& out) const
+    {
+        const double merge_length = 0.5 * criteria.target(d_[i]);
+        out.clear();
+        mesh_.find_outgoing(i, [&](int32_t h) {
+            const double length = distance(mesh_.points[i], mesh_.points[mesh_.to(h)]);
+            if (length < merge_length) out.emplace_back(length, h);
+            return false; // the whole fan round
+        });
+        std::sort(out.begin(), out.end());
+    }
+
+    // Merges along the first of `candidates` that `criteria` accepts: its
+    // node collapsed into the edge's other end j, which moves by the merge's
+    // shift (its drift and the volume lost kept per node); `damage` rises to
+    // the merge's. The two dead faces go to `freed` when given
+    // (HalfedgeMesh::collapse(h, freed)), else to the free list. Returns j,
+    // or -1 when no candidate passes.
+    int32_t merge_first(const std::vector<std::pair<double, int32_t>>& candidates, Criteria& criteria, double& damage,
+                        std::vector<int32_t>* freed)
+    {
+        for (const auto& [length, edge] : candidates) {
+            const Check check = criteria.merge(mesh_, d_, params_.conserve_volume ? &drift_ : nullptr, edge);
+            if (check.verdict != Verdict::accepted) continue;
+            const int32_t j = mesh_.to(edge);
+            if (freed) mesh_.collapse(edge, *freed);
+            else mesh_.collapse(edge);
+            mesh_.points[j] += check.shift;
+            drift_[j] += check.shift;
+            lost_[j] -= check.volume_change;
+            damage = std::max(damage, check.damage);
+            return j;
+        }
+        return -1;
     }
 
     // RemeshParams::parallel_merge_vertices: merge_nodes in the cubes of a
@@ -369,43 +388,27 @@ private:
             for (int32_t v : work) queued[v] = 0;
             for (int32_t i : work) {
                 if (!mesh_.vertex_alive(i)) continue;
-                const double merge_length = 0.5 * criteria.target(d_[i]);
-                candidates.clear();
-                mesh_.find_outgoing(i, [&](int32_t h) {
-                    const double length = distance(mesh_.points[i], mesh_.points[mesh_.to(h)]);
-                    if (length < merge_length) candidates.emplace_back(length, h);
-                    return false; // the whole fan round
-                });
+                merge_candidates(i, criteria, candidates);
                 if (candidates.empty()) continue;
                 if (!inside(i)) {
                     out.left.push_back(i);
                     continue;
                 }
-                std::sort(candidates.begin(), candidates.end());
-                for (const auto& [length, edge] : candidates) {
-                    const Check check = criteria.merge(mesh_, d_, params_.conserve_volume ? &drift_ : nullptr, edge);
-                    if (check.verdict != Verdict::accepted) continue;
-                    const int32_t j = mesh_.to(edge);
-                    mesh_.collapse(edge, out.freed);
-                    mesh_.points[j] += check.shift;
-                    drift_[j] += check.shift;
-                    lost_[j] -= check.volume_change;
-                    out.max_damage = std::max(out.max_damage, check.damage);
-                    // As mark_two_ring: the nodes within two edges of j, and
-                    // the faces of j's fan.
-                    mesh_.find_outgoing(j, [&](int32_t h) {
-                        const int32_t k = mesh_.to(h);
-                        out.faces.push_back(HalfedgeMesh::face(h));
-                        queue(k);
-                        mesh_.find_outgoing(k, [&](int32_t g) {
-                            queue(mesh_.to(g));
-                            return false;
-                        });
+                const int32_t j = merge_first(candidates, criteria, out.max_damage, &out.freed);
+                if (j < 0) continue;
+                // As mark_two_ring: the nodes within two edges of j, and the
+                // faces of j's fan.
+                mesh_.find_outgoing(j, [&](int32_t h) {
+                    const int32_t k = mesh_.to(h);
+                    out.faces.push_back(HalfedgeMesh::face(h));
+                    queue(k);
+                    mesh_.find_outgoing(k, [&](int32_t g) {
+                        queue(mesh_.to(g));
                         return false;
                     });
-                    ++out.merges;
-                    break;
-                }
+                    return false;
+                });
+                ++out.merges;
             }
             work.swap(next);
             next.clear();
