@@ -194,10 +194,12 @@ void ProgressDisplay::summary(const CaseConfig& config, const CaseResult& result
                          static_cast<long long>(v.flips_44), v.first_layer_anisotropy_median);
             std::fprintf(o, "            surface quads split the other way %lld: %lld re-triangulated, %lld diagonals "
                             "flipped; %lld other surface edges flipped to Delaunay facets; %lld flat surface caps "
-                            "peeled; %lld cap diagonals flipped for light faces; insertion retries %lld\n",
+                            "peeled; %lld cap diagonals flipped for tets below the floors, %lld for light faces; "
+                            "insertion retries %lld\n",
                          static_cast<long long>(v.surface_quads), static_cast<long long>(v.surface_quads - v.quad_flips),
                          static_cast<long long>(v.quad_flips), static_cast<long long>(v.facet_flips),
-                         static_cast<long long>(v.caps_peeled), static_cast<long long>(v.light_face_cap_flips),
+                         static_cast<long long>(v.caps_peeled), static_cast<long long>(v.poor_tet_cap_flips),
+                         static_cast<long long>(v.light_face_cap_flips),
                          static_cast<long long>(v.insertion_retries));
         }
     } else {

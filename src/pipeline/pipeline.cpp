@@ -797,9 +797,9 @@ PipelineRun run_stages(const CaseConfig& config, const PipelineOptions& options,
         }
         // The surface is the mesh's boundary, with any diagonals the volume
         // stage flipped (to Delaunay facets, by peeling a flat cap, or in an
-        // opening's cap for a light face).
+        // opening's cap for a poor tet or a light face).
         const int64_t flips = run.volume->quad_flips + run.volume->facet_flips + run.volume->caps_peeled +
-                              run.volume->light_face_cap_flips;
+                              run.volume->poor_tet_cap_flips + run.volume->light_face_cap_flips;
         run.remeshed->surface.triangles = run.volume->mesh.boundary_faces;
         const QualityReport& q = run.volume->after_slivers;
         std::ostringstream summary;

@@ -524,6 +524,7 @@ std::string report_json(const CaseConfig& config, const PipelineRun& run, const 
                             {"light_faces",
                              {{"below_0_06_before", v.light_faces_before},
                               {"cap_flips", v.light_face_cap_flips},
+                              {"poor_tet_cap_flips", v.poor_tet_cap_flips},
                               {"moves", v.light_face_moves},
                               {"below_0_06_after", v.light_faces_after}}},
                             {"quality_before_flips", quality(v.before_flips)},

@@ -291,7 +291,12 @@ CellCounts improve_cells(TetMesh& mesh, int32_t surface_points, const CellPassPa
 // quad's other diagonal then takes its place, in the tets and in
 // mesh.boundary_faces (the two ids keep their patch; the cap's plane is
 // unchanged), where the quad is convex and the new tets keep what a move
-// keeps with a heavier lightest face.
+// keeps with a heavier lightest face. Then the same flip is made under a tet
+// (beyond the first `locked_tets`) still below the solver's floors
+// (OrthoFloors: 10 degrees, aspect ratio 0.1) with a face on an opening's
+// flat cap, where the flip raises the two tets' smallest dihedral angle and
+// keeps the floors (dihedral_better): a tet on a cap triangle with an angle
+// near 180 degrees is as flat as that triangle wherever its apex is.
 //
 // Then the free points of the other faces' tets (not surface points, nor
 // `layers`' fixed ones; a layer point within its bound, a ball or a
@@ -301,11 +306,13 @@ CellCounts improve_cells(TetMesh& mesh, int32_t surface_points, const CellPassPa
 // (CellPassParams: 12 degrees, 65), or the star's own worst where that
 // already misses them. A point with a locked tet in its star is not moved,
 // nor, without `prisms`, one whose star has a face to a locked tet.
-// Serial: the faces are few, after the passes. Returns the faces below the
-// target before and after, the flips and the moves.
+// Serial but for the scan for poor tets: the faces are few, after the
+// passes. Returns the faces below the target before and after, the flips
+// of each kind and the moves.
 struct LightFaceCounts {
     int64_t faces_before = 0, faces_after = 0; // faces below the target
     int64_t cap_flips = 0, moves = 0;
+    int64_t poor_tet_cap_flips = 0; // flips of a flat cap's quad under a tet below the floors
 };
 LightFaceCounts mend_light_faces(TetMesh& mesh, int32_t surface_points, double target_weight,
                                  const std::vector<LayerBound>& layers = {}, int32_t locked_tets = 0,

@@ -3,6 +3,7 @@
 #include "core/adjacency.h"
 #include "core/errors.h"
 #include "core/face_measures.h"
+#include "core/nearest_triangle.h"
 #include "volume/layer_prisms.h"
 #include "volume/self_intersections.h"
 
@@ -298,6 +299,26 @@ LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizi
         }
         const SelfIntersections crossing = self_intersections(top, size_t(1) << 20);
         for (const auto& pair : crossing.first) poor[pair[0]] = poor[pair[1]] = 1;
+        // A top point just over a cap's fill (a wall node next to an opening,
+        // its column nearly in the cap's plane and longer than the rim's
+        // columns, drawn in to the cap's last ring) leaves the core only flat
+        // tets between them: its columns are shortened too.
+        if (!params.core_faces.empty())
+            tbb::parallel_for(size_t(0), walls.size(), [&](size_t w) {
+                if (poor[w]) return;
+                for (int32_t v : surface.triangles[walls[w]]) {
+                    if (stack.first[v] < 0) continue; // a rim node: its top is the cap's last ring
+                    for (const Triangle& f : params.core_faces) {
+                        const Vec3 &a = at[f[0]], &b = at[f[1]], &c = at[f[2]];
+                        const double edge2 = std::max({norm2(b - a), norm2(c - b), norm2(a - c)});
+                        const double clearance2 = params.min_core_clearance * params.min_core_clearance * edge2;
+                        if (point_triangle_distance2(at[point(v, L)], a, b, c) < clearance2) {
+                            poor[w] = 1;
+                            return;
+                        }
+                    }
+                }
+            });
         std::fill(side_poor.begin(), side_poor.end(), 0);
         if (stack.rounds < params.relax_round) tbb::parallel_for(size_t(0), walls.size(), check_sides);
         const bool any_poor = std::find(poor.begin(), poor.end(), 1) != poor.end();

@@ -14,11 +14,14 @@
 //
 // Where columns would make a poor prism (a tet of its split below a fraction
 // of the prism's volume, or a prism not star-shaped from its centroid as a
-// cell must be: normals converging or crossing) or stacks would collide
-// (top triangles crossing), whole columns are shortened, keeping their
-// number of layers, as Netgen's growth limiter does: every wall node keeps
-// all its layers. The first layer keeps its thickness (the wall-cell
-// distance), and the others grow less (shortened_column, offset_points.h).
+// cell must be: normals converging or crossing), stacks would collide (top
+// triangles crossing) or a column's top would end just over a cap's fill
+// (nearer one of `core_faces` than min_core_clearance of its longest edge,
+// which leaves the core only flat tets there), whole columns are
+// shortened, keeping their number of layers, as Netgen's growth limiter
+// does: every wall node keeps all its layers. The first layer keeps its
+// thickness (the wall-cell distance), and the others grow less
+// (shortened_column, offset_points.h).
 
 #include "core/surface_mesh.h"
 #include "core/tet_mesh.h"
@@ -45,6 +48,8 @@ struct LayerStackParams {
     std::vector<int32_t> rim_columns;
     std::vector<Triangle> core_faces; // the rest of the core's boundary (the caps inside their last rings),
                                       // checked with the stack's against crossings
+    double min_core_clearance = 0.2;  // a column's top point nearer a core face than this times the face's
+                                      // longest edge shortens the columns of its wall triangles
 };
 
 struct LayerStack {

@@ -164,20 +164,32 @@ Vec3 unit_normal(const TetEditor& ed, const Triangle& f)
     return normalized(cross(ed.point(f[1]) - ed.point(f[0]), ed.point(f[2]) - ed.point(f[0])));
 }
 
-// The light face of tets t and u over a flat cap (the flip of a boundary
-// quad, which no move of a point mends: see improve.h). `boundary` is the
-// mesh's boundary faces, `patch` their patches, `at` a face's index by its
-// sorted corners. The face has an edge (e0, e1) on which each tet has a
-// boundary face, (e0, e1, a) and (e0, e1, b), both of one opening's patch
-// (not the wall's, 0) and in one plane; the tets are then a pyramid over
-// the quad (e0, a, e1, b) from the face's third corner p. Its other
-// diagonal splits it into (a, b, e0, p) and (a, b, e1, p), the cap's plane
-// unchanged, where both are clearly positive and fill the pyramid (the
-// quad is convex), (a, b) is no edge yet, and the new tets keep what a move
-// keeps (keeps_floors) and have a heavier lightest face. Each edge of the
-// face is tried. True when flipped.
-bool flip_flat_cap(TetEditor& ed, std::vector<Triangle>& boundary, const std::vector<int32_t>& patch,
-                   const std::map<std::array<int32_t, 3>, size_t>& at, int32_t t, int32_t u)
+// The boundary faces' indices by their sorted corners.
+using FaceIndex = std::map<std::array<int32_t, 3>, size_t>;
+
+std::array<int32_t, 3> sorted_key(int32_t x, int32_t y, int32_t z)
+{
+    std::array<int32_t, 3> key{x, y, z};
+    std::sort(key.begin(), key.end());
+    return key;
+}
+
+// The flip of a flat cap's quad under tets t and u, which no move of a
+// point mends (a thin triangle at a cap's rim, or a cap triangle with an
+// angle near 180 degrees: see improve.h). `boundary` is the mesh's
+// boundary faces, `patch` their patches, `at` a face's index by its sorted
+// corners (kept up to date). The face t and u share has an edge (e0, e1)
+// on which each tet has a boundary face, (e0, e1, a) and (e0, e1, b), both
+// of one opening's patch (not the wall's, 0) and in one plane; the tets are
+// then a pyramid over the quad (e0, a, e1, b) from the face's third corner
+// p. Its other diagonal splits it into (a, b, e0, p) and (a, b, e1, p), the
+// cap's plane unchanged, where both are clearly positive and fill the
+// pyramid (the quad is convex), (a, b) is no edge yet, and
+// better(old tets, their links, new tets, their links) holds. Each edge of
+// the face is tried. True when flipped.
+template <class Better>
+bool flip_flat_cap(TetEditor& ed, std::vector<Triangle>& boundary, const std::vector<int32_t>& patch, FaceIndex& at,
+                   int32_t t, int32_t u, const Better& better)
 {
     if (ed.locked(t) || ed.locked(u)) return false;
     const Tet first = ed.tet(t), second = ed.tet(u);
@@ -188,17 +200,15 @@ bool flip_flat_cap(TetEditor& ed, std::vector<Triangle>& boundary, const std::ve
         else a = v;
     for (int32_t v : second)
         if (!TetEditor::contains(first, v)) b = v;
+    if (face.size() != 3) return false;
     const auto boundary_face = [&](int32_t x, int32_t y, int32_t z) -> std::optional<size_t> {
-        std::array<int32_t, 3> key{x, y, z};
-        std::sort(key.begin(), key.end());
-        const auto it = at.find(key);
+        const auto it = at.find(sorted_key(x, y, z));
         return it == at.end() ? std::nullopt : std::optional<size_t>(it->second);
     };
     if (!ed.around_edge(a, b).empty()) return false;
     const std::vector<Tet> old{first, second};
     const std::vector<int32_t> ids{t, u};
     const std::vector<FaceLink> old_links = face_links(ed, old, ids);
-    const Shape before = shape_of(ed, old, old_links);
     const double whole = ed.volume6(first) + ed.volume6(second);
     for (int e = 0; e < 3; ++e) {
         const int32_t e0 = face[e], e1 = face[(e + 1) % 3], p = face[(e + 2) % 3];
@@ -210,21 +220,59 @@ bool flip_flat_cap(TetEditor& ed, std::vector<Triangle>& boundary, const std::ve
         const std::vector<Tet> fresh{improvement::oriented(ed, a, b, e0, p, v0),
                                      improvement::oriented(ed, a, b, e1, p, v1)};
         if (!(v0 > 1e-3 * whole && v1 > 1e-3 * whole && std::abs(v0 + v1 - whole) <= 1e-9 * whole)) continue;
-        const std::vector<FaceLink> links = face_links(ed, fresh, ids);
-        if (!keeps_floors(before, shape_of(ed, fresh, links), OrthoFloors{}, CellPassParams{}) ||
-            !(lightest(ed, fresh, links) > lightest(ed, old, old_links) + 1e-9))
-            continue;
+        if (!better(old, old_links, fresh, face_links(ed, fresh, ids))) continue;
         ed.replace(ids, fresh);
         // The cap's two triangles, each facing out as before.
         const auto outward = [&](Triangle x) {
             if (dot(unit_normal(ed, x), normal) < 0) std::swap(x[0], x[1]);
             return x;
         };
+        at.erase(sorted_key(e0, e1, a));
+        at.erase(sorted_key(e0, e1, b));
         boundary[*i] = outward({a, b, e0});
         boundary[*j] = outward({a, b, e1});
+        at.emplace(sorted_key(a, b, e0), *i);
+        at.emplace(sorted_key(a, b, e1), *j);
         return true;
     }
     return false;
+}
+
+// Per tet beyond the first `locked`: whether it is below the solver's
+// floors (OrthoFloors: the smallest dihedral angle, the aspect ratio).
+// Measured in parallel (reading only).
+std::vector<char> poor_tets(const TetEditor& ed, int32_t locked, const OrthoFloors& floors)
+{
+    return improvement::parallel_marks(size_t(locked), ed.size(), [&](size_t i) {
+        const Tet& x = ed.tet(int32_t(i));
+        const TetMeasures m = tet_measures(ed.point(x[0]), ed.point(x[1]), ed.point(x[2]), ed.point(x[3]));
+        return ed.alive(int32_t(i)) && (m.min_dihedral_deg < floors.dihedral || m.aspect_ratio < floors.aspect);
+    });
+}
+
+// The tets marked `poor` (poor_tets) with a boundary face in `at`, each
+// with every tet that may share a flat cap's quad with it: for a boundary
+// face (e0, e1, a) of the tet and its fourth corner p, the tet across the
+// face (e0, e1, p), and so for each edge of the boundary face. In id order.
+std::vector<std::pair<int32_t, int32_t>> cap_pairs(TetEditor& ed, int32_t locked, const std::vector<char>& poor,
+                                                   const FaceIndex& at)
+{
+    std::vector<std::pair<int32_t, int32_t>> found;
+    for (size_t i = size_t(locked); i < ed.size(); ++i) {
+        if (!poor[i - size_t(locked)]) continue;
+        const auto t = static_cast<int32_t>(i);
+        const Tet& x = ed.tet(t);
+        for (int k = 0; k < 4; ++k) {
+            const int32_t p = x[k], f[3] = {x[(k + 1) % 4], x[(k + 2) % 4], x[(k + 3) % 4]};
+            if (!at.count(sorted_key(f[0], f[1], f[2]))) continue;
+            for (int e = 0; e < 3; ++e) {
+                Few<int32_t, 2> two;
+                if (!ed.tets_at(two, f[e], f[(e + 1) % 3], p) || two.size() != 2) continue;
+                found.push_back({t, two[0] == t ? two[1] : two[0]});
+            }
+        }
+    }
+    return found;
 }
 
 } // namespace
@@ -251,36 +299,69 @@ LightFaceCounts mend_light_faces(TetMesh& mesh, int32_t surface_points, double t
         if (centres.prisms) ed.centres = &centres;
     };
 
-    // First the light faces over a flat cap: their boundary quads flipped.
+    const OrthoFloors floors;
+    const bool caps = boundary_patch.size() == mesh.boundary_faces.size();
+    const auto boundary_index = [&] {
+        FaceIndex at;
+        for (size_t i = 0; i < mesh.boundary_faces.size(); ++i) {
+            const Triangle& f = mesh.boundary_faces[i];
+            at.emplace(sorted_key(f[0], f[1], f[2]), i);
+        }
+        return at;
+    };
+
+    // First the light faces over a flat cap: their boundary quads flipped,
+    // where the new tets keep what a move keeps and have a heavier lightest
+    // face.
     {
         TetEditor ed(mesh, locked_tets);
         attach_centres(ed);
         const std::vector<Face> light = light_faces(ed, tet_face_adjacency(mesh), locked_tets, target_weight);
         counts.faces_before = static_cast<int64_t>(light.size());
-        if (light.empty()) return counts;
-        if (boundary_patch.size() == mesh.boundary_faces.size()) {
-            // Not updated after a flip: the two faces it replaces sit on an
-            // edge no living tet has any more, and the faces it makes are
-            // not in `light`.
-            std::map<std::array<int32_t, 3>, size_t> at;
-            for (size_t i = 0; i < mesh.boundary_faces.size(); ++i) {
-                std::array<int32_t, 3> key = mesh.boundary_faces[i];
-                std::sort(key.begin(), key.end());
-                at.emplace(key, i);
-            }
+        if (caps && !light.empty()) {
+            FaceIndex at = boundary_index();
+            const auto lightens = [&](const std::vector<Tet>& old, const std::vector<FaceLink>& old_links,
+                                      const std::vector<Tet>& fresh, const std::vector<FaceLink>& links) {
+                return keeps_floors(shape_of(ed, old, old_links), shape_of(ed, fresh, links), floors, CellPassParams{}) &&
+                       lightest(ed, fresh, links) > lightest(ed, old, old_links) + 1e-9;
+            };
             for (const Face& f : light)
-                if (ed.alive(f.t) && ed.alive(f.u) && flip_flat_cap(ed, mesh.boundary_faces, boundary_patch, at, f.t, f.u))
+                if (ed.alive(f.t) && ed.alive(f.u) &&
+                    flip_flat_cap(ed, mesh.boundary_faces, boundary_patch, at, f.t, f.u, lightens))
                     ++counts.cap_flips;
             if (counts.cap_flips > 0) ed.commit();
         }
     }
+
+    // Then the flat caps under a tet still below the solver's floors. A tet
+    // on a cap triangle with an angle near 180 degrees is as flat as that
+    // triangle wherever its apex is (its angles at the edges to the apex
+    // tend to the triangle's small angles), so no move mends it: the flip
+    // must raise the smallest dihedral angle and keep the floors
+    // (dihedral_better).
+    if (caps) {
+        TetEditor ed(mesh, locked_tets);
+        attach_centres(ed);
+        const std::vector<char> poor = poor_tets(ed, locked_tets, floors);
+        const bool any = std::find(poor.begin(), poor.end(), 1) != poor.end();
+        FaceIndex at = any ? boundary_index() : FaceIndex{};
+        const auto raises_dihedral = [&](const std::vector<Tet>& old, const std::vector<FaceLink>& old_links,
+                                         const std::vector<Tet>& fresh, const std::vector<FaceLink>& links) {
+            return improvement::dihedral_better(shape_of(ed, old, old_links), shape_of(ed, fresh, links), floors);
+        };
+        for (const auto& [t, u] : cap_pairs(ed, locked_tets, poor, at))
+            if (ed.alive(t) && ed.alive(u) &&
+                flip_flat_cap(ed, mesh.boundary_faces, boundary_patch, at, t, u, raises_dihedral))
+                ++counts.poor_tet_cap_flips;
+        if (counts.poor_tet_cap_flips > 0) ed.commit();
+    }
+    if (counts.faces_before == 0 && counts.poor_tet_cap_flips == 0) return counts;
 
     // Then moves of the free points of the rest, a face's tets' points in
     // turn until it is mended.
     const TetFaceAdjacency adjacency = tet_face_adjacency(mesh);
     TetEditor ed(mesh, locked_tets);
     attach_centres(ed);
-    const OrthoFloors floors;
     for (const Face& f : light_faces(ed, adjacency, locked_tets, target_weight)) {
         const Tet t = ed.tet(f.t), u = ed.tet(f.u);
         Triangle face{};

@@ -45,6 +45,7 @@ void count_light_faces(const LightFaceCounts& made, VolumeResult& result)
     result.light_faces_before = made.faces_before;
     result.light_face_moves = made.moves;
     result.light_face_cap_flips = made.cap_flips;
+    result.poor_tet_cap_flips = made.poor_tet_cap_flips;
     result.light_faces_after = made.faces_after;
 }
 

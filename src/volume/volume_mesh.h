@@ -125,6 +125,7 @@ struct VolumeResult {
                                  // faces between two tets of interpolation weight below 0.06 after the
                                  // cell passes, the flat cap quads flipped for them,
                                  // the point moves made for them (mend_light_faces), the faces left
+    int64_t poor_tet_cap_flips = 0; // flat cap quads flipped under a tet below the floors (mend_light_faces)
     // seconds_classify is the removal: the surface points' triangulation,
     // inside and outside, the output and the quads put back.
     double seconds_points = 0, seconds_insertion = 0, seconds_classify = 0, seconds_flips = 0,
@@ -163,9 +164,9 @@ public:
 // mesh.boundary_faces == surface.triangles (same order, same orientation)
 // except at the quad_flips + facet_flips pairs of triangles whose diagonal
 // was flipped to the Delaunay one, the caps_peeled pairs whose flat tet
-// was taken out and the light_face_cap_flips pairs of an opening's flat cap
-// whose diagonal was flipped for a light face (each pair keeps its two ids
-// and patch),
+// was taken out and the poor_tet_cap_flips and light_face_cap_flips pairs
+// of an opening's flat cap whose diagonal was flipped for a tet below the
+// floors or a light face (each pair keeps its two ids and patch),
 // boundary_patch == surface.triangle_patch; every tet is positively oriented;
 // the tets fill exactly the region the surface encloses (tet_mesh_facts gives
 // boundary_matches and the enclosed volume to round-off); each surface node's

@@ -448,6 +448,51 @@ TEST(Cli, TubeWithBorderOpeningsKeepsItsPrismLayers)
     EXPECT_GT(report["openings"][0]["point_mm"][2].get<double>(), 0.5) << report["openings"][0];
 }
 
+// The bifurcation phantom at 0.08 mm voxels with an opening on each branch:
+// next to outlet_left, a wall node's column, nearly in the cap's plane and
+// longer than the rim's columns (shortened for the cap's last ring), ended
+// 0.08 mm over the cap's fill, and the core's tets between them were flat
+// (a tet cell of 1.62 degrees): the run gave its prism layers up. A top
+// point nearer a core face than LayerStackParams::min_core_clearance of the
+// face's longest edge now shortens its columns.
+TEST(Cli, FineBifurcationKeepsItsPrismLayersAtItsOpenings)
+{
+    const TempDir tmp;
+    std::ofstream(tmp.path / "scalemesh.toml") << R"([input]
+phantom = "bifurcation"
+voxel_size = 0.08
+[sizing]
+L_min = "0.5 voxels"
+L_max = "40 voxels"
+[[openings]]
+name = "inlet"
+type = "inlet"
+point = [0, 0, -12]
+normal = [0, 0, -1]
+[[openings]]
+name = "outlet_left"
+type = "outlet"
+point = [-6.0, 0, 10.392]
+normal = [-0.5, 0, 0.866]
+radius = 3
+[[openings]]
+name = "outlet_right"
+type = "outlet"
+point = [6.0, 0, 10.392]
+normal = [0.5, 0, 0.866]
+radius = 3
+[output]
+volume = []
+surface = []
+)";
+    const CommandResult r = run_scalemesh({"run", tmp.path.string(), "--strict"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const nlohmann::json report = nlohmann::json::parse(read_text(tmp.path / "report.json"));
+    EXPECT_EQ(report["volume"]["layers_built"], "prisms") << report["volume"]["layer_fallback"];
+    EXPECT_TRUE(report["warnings"].empty()) << report["warnings"];
+    EXPECT_GE(report["openfoam"]["intact_prism_share"].get<double>(), 0.95);
+}
+
 // Where the prism layers cannot be built, the run builds the paper's
 // Delaunay layers instead and says so, rather than failing: a tube of 7
 // voxels' radius whose border inlet and outlet are cut 1 voxel in, where

@@ -512,6 +512,47 @@ TEST(KernelLightFaces, ALightFaceOverANonConvexCapQuadIsNotFlipped)
     EXPECT_EQ(left.boundary_faces, start.boundary_faces);
 }
 
+// A tet below the dihedral floor (8.9 degrees) on a cap triangle whose angle
+// at 2 is 164 degrees, its face to the other tet not light (0.065): its
+// angles at the edges to the apex 4 tend to the triangle's small angles
+// wherever 4 is, so only the quad's other diagonal (2, 3) mends it. On an
+// opening's patch it takes the edge's place (both new tets at 35 degrees),
+// the cap's plane and the volume unchanged; on the wall, or without
+// patches, nothing changes.
+TEST(KernelLightFaces, ATetBelowTheFloorsOverAFlatCapIsFlippedToTheQuadsOtherDiagonal)
+{
+    const std::vector<Vec3> points{{0, 0, 0}, {1, 0, 0}, {0.5, 0.07, 0}, {0.5, -1, 0}, {0.5, 0, 1}};
+    const auto [start, cap] = two_tets_on_a_cap(points);
+    ASSERT_LT(smallest_dihedral(start), 10);
+    ASSERT_GE(lightest_face(start), 0.06);
+
+    TetMesh flipped = start;
+    const LightFaceCounts made = mend_light_faces(flipped, 4, 0.06, {}, 0, nullptr, cap);
+    EXPECT_EQ(made.faces_before, 0);
+    EXPECT_EQ(made.cap_flips, 0);
+    EXPECT_EQ(made.poor_tet_cap_flips, 1);
+    EXPECT_EQ(made.faces_after, 0);
+    EXPECT_EQ(flipped.points, points);
+    EXPECT_GE(smallest_dihedral(flipped), 30);
+    const TetMeshFacts facts = tet_mesh_facts(flipped);
+    EXPECT_EQ(facts.nonpositive_tets, 0);
+    EXPECT_TRUE(facts.boundary_matches);
+    EXPECT_NEAR(facts.volume, tet_mesh_facts(start).volume, 1e-12);
+    for (size_t i = 0; i < cap.size(); ++i) {
+        const Triangle& f = flipped.boundary_faces[i];
+        const bool has_diagonal = std::count(f.begin(), f.end(), 2) + std::count(f.begin(), f.end(), 3) == 2;
+        EXPECT_EQ(has_diagonal, cap[i] == 1) << "boundary face " << i;
+    }
+
+    for (const std::vector<int32_t>& patches : {std::vector<int32_t>(cap.size(), 0), std::vector<int32_t>{}}) {
+        TetMesh left = start;
+        const LightFaceCounts none = mend_light_faces(left, 4, 0.06, {}, 0, nullptr, patches);
+        EXPECT_EQ(none.poor_tet_cap_flips + none.cap_flips + none.moves, 0);
+        EXPECT_EQ(left.tets, start.tets);
+        EXPECT_EQ(left.boundary_faces, start.boundary_faces);
+    }
+}
+
 // A free point held (a fixed layer point) is not moved.
 TEST(KernelLightFaces, AFixedLayerPointIsNotMoved)
 {

@@ -106,7 +106,7 @@ TEST_P(VolumePhantom, ConformingPositiveOfTheSurfacesTopologyAndAboveTheQualityF
     ASSERT_EQ(mesh.boundary_faces.size(), p.surface.triangles.size());
     int64_t changed = 0;
     for (size_t t = 0; t < p.surface.triangles.size(); ++t) changed += mesh.boundary_faces[t] != p.surface.triangles[t];
-    EXPECT_LE(changed, 2 * (r.quad_flips + r.facet_flips + r.caps_peeled + r.light_face_cap_flips));
+    EXPECT_LE(changed, 2 * (r.quad_flips + r.facet_flips + r.caps_peeled + r.poor_tet_cap_flips + r.light_face_cap_flips));
     SurfaceMesh bounded = p.surface;
     bounded.triangles = mesh.boundary_faces;
     const double enclosed = signed_volume(bounded);
