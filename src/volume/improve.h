@@ -294,8 +294,10 @@ CellCounts improve_cells(TetMesh& mesh, int32_t surface_points, const CellPassPa
 // keeps with a heavier lightest face. Then the same flip is made under a tet
 // (beyond the first `locked_tets`) still below the solver's floors
 // (OrthoFloors: 10 degrees, aspect ratio 0.1) with a face on an opening's
-// flat cap, where the flip raises the two tets' smallest dihedral angle and
-// keeps the floors (dihedral_better): a tet on a cap triangle with an angle
+// flat cap, where the flip raises the two tets' smallest dihedral angle,
+// keeps the aspect ratio floor and non-orthogonality within 70 degrees (or
+// the old tets' worst: dihedral_better) and leaves no face lighter than the
+// target (or the old tets' lightest): a tet on a cap triangle with an angle
 // near 180 degrees is as flat as that triangle wherever its apex is.
 //
 // Then the free points of the other faces' tets (not surface points, nor
@@ -306,8 +308,8 @@ CellCounts improve_cells(TetMesh& mesh, int32_t surface_points, const CellPassPa
 // (CellPassParams: 12 degrees, 65), or the star's own worst where that
 // already misses them. A point with a locked tet in its star is not moved,
 // nor, without `prisms`, one whose star has a face to a locked tet.
-// Serial but for the scan for poor tets: the faces are few, after the
-// passes. Returns the faces below the target before and after, the flips
+// Serial but for the scans for light faces and poor tets: the faces are
+// few, after the passes. Returns the faces below the target before and after, the flips
 // of each kind and the moves.
 struct LightFaceCounts {
     int64_t faces_before = 0, faces_after = 0; // faces below the target

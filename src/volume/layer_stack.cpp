@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <array>
 #include <unordered_map>
 
 namespace scalemesh {
@@ -109,6 +110,64 @@ EdgeFaces wall_edge_faces(const SurfaceMesh& surface, const std::vector<int32_t>
     return out;
 }
 
+// The core's faces off the wall (the caps inside their last rings), for
+// the clearance of the columns' tops: too_near(x) when x is nearer one of
+// them than `clearance` times that face's longest edge. The faces are
+// binned in a uniform grid of cells as large as the largest face's reach,
+// so a point looks at the faces of its own cell alone; the faces' points
+// are surface points, which never move.
+class CapFill {
+public:
+    CapFill(const std::vector<Vec3>& points, const std::vector<Triangle>& faces, double clearance)
+        : points_(points), faces_(faces)
+    {
+        for (const Triangle& f : faces) {
+            const Vec3 &a = points[f[0]], &b = points[f[1]], &c = points[f[2]];
+            const double reach2 = clearance * clearance * std::max({norm2(b - a), norm2(c - b), norm2(a - c)});
+            reach2_.push_back(reach2);
+            cell_ = std::max(cell_, 2 * std::sqrt(reach2) + std::max({norm(b - a), norm(c - b), norm(a - c)}));
+        }
+        if (!(cell_ > 0)) return; // only flat faces: none is near anything
+        for (size_t i = 0; i < faces.size(); ++i) {
+            const Triangle& f = faces[i];
+            const double reach = std::sqrt(reach2_[i]);
+            std::array<int64_t, 3> lo, hi;
+            for (int k = 0; k < 3; ++k) {
+                const double a = points[f[0]][k], b = points[f[1]][k], c = points[f[2]][k];
+                lo[k] = index(std::min({a, b, c}) - reach);
+                hi[k] = index(std::max({a, b, c}) + reach);
+            }
+            for (int64_t x = lo[0]; x <= hi[0]; ++x)
+                for (int64_t y = lo[1]; y <= hi[1]; ++y)
+                    for (int64_t z = lo[2]; z <= hi[2]; ++z) cells_[key(x, y, z)].push_back(int32_t(i));
+        }
+    }
+    bool empty() const { return cells_.empty(); }
+    bool too_near(const Vec3& x) const
+    {
+        const auto it = cells_.find(key(index(x[0]), index(x[1]), index(x[2])));
+        if (it == cells_.end()) return false;
+        for (int32_t i : it->second) {
+            const Triangle& f = faces_[i];
+            if (point_triangle_distance2(x, points_[f[0]], points_[f[1]], points_[f[2]]) < reach2_[i]) return true;
+        }
+        return false;
+    }
+
+private:
+    int64_t index(double x) const { return static_cast<int64_t>(std::floor(x / cell_)); }
+    static uint64_t key(int64_t x, int64_t y, int64_t z)
+    {
+        return (uint64_t(x) & 0x1FFFFF) | (uint64_t(y) & 0x1FFFFF) << 21 | (uint64_t(z) & 0x1FFFFF) << 42;
+    }
+
+    const std::vector<Vec3>& points_;
+    const std::vector<Triangle>& faces_;
+    std::vector<double> reach2_;
+    double cell_ = 0;
+    std::unordered_map<uint64_t, std::vector<int32_t>> cells_;
+};
+
 } // namespace
 
 LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizing, const LayerColumns& columns,
@@ -201,6 +260,7 @@ LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizi
     }
     std::vector<Vec3> at(n + size_t(count)); // surface points, then layer points
     std::copy(surface.points.begin(), surface.points.end(), at.begin());
+    const CapFill fill(surface.points, params.core_faces, params.min_core_clearance);
     const auto place = [&] {
         tbb::parallel_for(int32_t(0), n, [&](int32_t v) {
             if (stack.first[v] < 0) return;
@@ -302,23 +362,17 @@ LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizi
         // A top point just over a cap's fill (a wall node next to an opening,
         // its column nearly in the cap's plane and longer than the rim's
         // columns, drawn in to the cap's last ring) leaves the core only flat
-        // tets between them: its columns are shortened too.
-        if (!params.core_faces.empty())
-            tbb::parallel_for(size_t(0), walls.size(), [&](size_t w) {
-                if (poor[w]) return;
-                for (int32_t v : surface.triangles[walls[w]]) {
-                    if (stack.first[v] < 0) continue; // a rim node: its top is the cap's last ring
-                    for (const Triangle& f : params.core_faces) {
-                        const Vec3 &a = at[f[0]], &b = at[f[1]], &c = at[f[2]];
-                        const double edge2 = std::max({norm2(b - a), norm2(c - b), norm2(a - c)});
-                        const double clearance2 = params.min_core_clearance * params.min_core_clearance * edge2;
-                        if (point_triangle_distance2(at[point(v, L)], a, b, c) < clearance2) {
-                            poor[w] = 1;
-                            return;
-                        }
-                    }
-                }
+        // tets between them: the columns of the wall triangles around it are
+        // shortened too. A rim node's top is the cap's last ring: not asked.
+        if (!fill.empty()) {
+            std::vector<char> near(n, 0);
+            tbb::parallel_for(int32_t(0), n, [&](int32_t v) {
+                if (stack.first[v] >= 0) near[v] = fill.too_near(at[point(v, L)]);
             });
+            for (size_t w = 0; w < walls.size(); ++w)
+                for (int32_t v : surface.triangles[walls[w]])
+                    if (near[v]) poor[w] = 1;
+        }
         std::fill(side_poor.begin(), side_poor.end(), 0);
         if (stack.rounds < params.relax_round) tbb::parallel_for(size_t(0), walls.size(), check_sides);
         const bool any_poor = std::find(poor.begin(), poor.end(), 1) != poor.end();

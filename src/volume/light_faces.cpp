@@ -250,7 +250,7 @@ std::vector<char> poor_tets(const TetEditor& ed, int32_t locked, const OrthoFloo
     });
 }
 
-// The tets marked `poor` (poor_tets) with a boundary face in `at`, each
+// The tets marked `poor` (poor_tets) with an opening's face in `at`, each
 // with every tet that may share a flat cap's quad with it: for a boundary
 // face (e0, e1, a) of the tet and its fourth corner p, the tet across the
 // face (e0, e1, p), and so for each edge of the boundary face. In id order.
@@ -300,12 +300,14 @@ LightFaceCounts mend_light_faces(TetMesh& mesh, int32_t surface_points, double t
     };
 
     const OrthoFloors floors;
-    const bool caps = boundary_patch.size() == mesh.boundary_faces.size();
+    // The openings' boundary faces (patch 0 is the wall's), indexed.
+    const bool caps = boundary_patch.size() == mesh.boundary_faces.size() &&
+                      std::any_of(boundary_patch.begin(), boundary_patch.end(), [](int32_t p) { return p != 0; });
     const auto boundary_index = [&] {
         FaceIndex at;
         for (size_t i = 0; i < mesh.boundary_faces.size(); ++i) {
             const Triangle& f = mesh.boundary_faces[i];
-            at.emplace(sorted_key(f[0], f[1], f[2]), i);
+            if (boundary_patch[i] != 0) at.emplace(sorted_key(f[0], f[1], f[2]), i);
         }
         return at;
     };
@@ -336,9 +338,12 @@ LightFaceCounts mend_light_faces(TetMesh& mesh, int32_t surface_points, double t
     // Then the flat caps under a tet still below the solver's floors. A tet
     // on a cap triangle with an angle near 180 degrees is as flat as that
     // triangle wherever its apex is (its angles at the edges to the apex
-    // tend to the triangle's small angles), so no move mends it: the flip
-    // must raise the smallest dihedral angle and keep the floors
-    // (dihedral_better).
+    // tend to the triangle's small angles), so no move mends it. The flip
+    // must raise the two tets' smallest dihedral angle, keep the aspect
+    // ratio floor and non-orthogonality within 70 degrees, or the old tets'
+    // worst (dihedral_better), and leave no face lighter than the target,
+    // or the old tets' lightest: the new interior face stands on the cap
+    // as the light faces above do, where no move mends it either.
     if (caps) {
         TetEditor ed(mesh, locked_tets);
         attach_centres(ed);
@@ -347,7 +352,8 @@ LightFaceCounts mend_light_faces(TetMesh& mesh, int32_t surface_points, double t
         FaceIndex at = any ? boundary_index() : FaceIndex{};
         const auto raises_dihedral = [&](const std::vector<Tet>& old, const std::vector<FaceLink>& old_links,
                                          const std::vector<Tet>& fresh, const std::vector<FaceLink>& links) {
-            return improvement::dihedral_better(shape_of(ed, old, old_links), shape_of(ed, fresh, links), floors);
+            return improvement::dihedral_better(shape_of(ed, old, old_links), shape_of(ed, fresh, links), floors) &&
+                   lightest(ed, fresh, links) >= std::min(target_weight, lightest(ed, old, old_links));
         };
         for (const auto& [t, u] : cap_pairs(ed, locked_tets, poor, at))
             if (ed.alive(t) && ed.alive(u) &&

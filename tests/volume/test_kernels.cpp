@@ -449,6 +449,30 @@ std::pair<TetMesh, std::vector<int32_t>> two_tets_on_a_cap(const std::vector<Vec
     return {std::move(mesh), std::move(cap)};
 }
 
+// The two tets of two_tets_on_a_cap after the flip of the cap's quad: the
+// points where they were, every tet positive, the boundary closed, the
+// volume kept; the cap's two triangles on the other diagonal (2, 3), facing
+// out (-z), the rest as before.
+void expect_cap_quad_flipped(const TetMesh& start, const TetMesh& flipped, const std::vector<int32_t>& cap)
+{
+    EXPECT_EQ(flipped.points, start.points);
+    const TetMeshFacts facts = tet_mesh_facts(flipped);
+    EXPECT_EQ(facts.nonpositive_tets, 0);
+    EXPECT_TRUE(facts.boundary_matches);
+    EXPECT_NEAR(facts.volume, tet_mesh_facts(start).volume, 1e-12);
+    const std::vector<Vec3>& p = start.points;
+    for (size_t i = 0; i < cap.size(); ++i) {
+        const Triangle& f = flipped.boundary_faces[i];
+        const bool has_diagonal = std::count(f.begin(), f.end(), 2) + std::count(f.begin(), f.end(), 3) == 2;
+        EXPECT_EQ(has_diagonal, cap[i] == 1) << "boundary face " << i;
+        if (cap[i]) {
+            EXPECT_LT(cross(p[f[1]] - p[f[0]], p[f[2]] - p[f[0]]).z, 0) << "faces out";
+        } else {
+            EXPECT_EQ(f, start.boundary_faces[i]) << "boundary face " << i;
+        }
+    }
+}
+
 // A light face whose two apexes lie in one plane with its surface edge (two
 // triangles of a flat cap, 2 far nearer the edge (0, 1) than 3; the free
 // point 4 above the edge): a move of 4 turns the face about that edge, and
@@ -469,20 +493,8 @@ TEST(KernelLightFaces, ALightFaceOverAFlatCapIsFlippedToTheQuadsOtherDiagonal)
     EXPECT_EQ(made.faces_before, 1);
     EXPECT_EQ(made.cap_flips, 1);
     EXPECT_EQ(made.faces_after, 0);
-    EXPECT_EQ(flipped.points, points);
     EXPECT_GE(lightest_face(flipped), 0.06);
-    const TetMeshFacts facts = tet_mesh_facts(flipped);
-    EXPECT_EQ(facts.nonpositive_tets, 0);
-    EXPECT_TRUE(facts.boundary_matches);
-    EXPECT_NEAR(facts.volume, tet_mesh_facts(start).volume, 1e-12);
-    for (size_t i = 0; i < cap.size(); ++i) {
-        const Triangle& f = flipped.boundary_faces[i];
-        const bool has_diagonal = std::count(f.begin(), f.end(), 2) + std::count(f.begin(), f.end(), 3) == 2;
-        EXPECT_EQ(has_diagonal, cap[i] == 1) << "boundary face " << i;
-        if (cap[i]) {
-            EXPECT_LT(cross(points[f[1]] - points[f[0]], points[f[2]] - points[f[0]]).z, 0) << "faces out";
-        }
-    }
+    expect_cap_quad_flipped(start, flipped, cap);
 
     for (const std::vector<int32_t>& patches : {std::vector<int32_t>(cap.size(), 0), std::vector<int32_t>{}}) {
         TetMesh left = start;
@@ -532,17 +544,8 @@ TEST(KernelLightFaces, ATetBelowTheFloorsOverAFlatCapIsFlippedToTheQuadsOtherDia
     EXPECT_EQ(made.cap_flips, 0);
     EXPECT_EQ(made.poor_tet_cap_flips, 1);
     EXPECT_EQ(made.faces_after, 0);
-    EXPECT_EQ(flipped.points, points);
     EXPECT_GE(smallest_dihedral(flipped), 30);
-    const TetMeshFacts facts = tet_mesh_facts(flipped);
-    EXPECT_EQ(facts.nonpositive_tets, 0);
-    EXPECT_TRUE(facts.boundary_matches);
-    EXPECT_NEAR(facts.volume, tet_mesh_facts(start).volume, 1e-12);
-    for (size_t i = 0; i < cap.size(); ++i) {
-        const Triangle& f = flipped.boundary_faces[i];
-        const bool has_diagonal = std::count(f.begin(), f.end(), 2) + std::count(f.begin(), f.end(), 3) == 2;
-        EXPECT_EQ(has_diagonal, cap[i] == 1) << "boundary face " << i;
-    }
+    expect_cap_quad_flipped(start, flipped, cap);
 
     for (const std::vector<int32_t>& patches : {std::vector<int32_t>(cap.size(), 0), std::vector<int32_t>{}}) {
         TetMesh left = start;

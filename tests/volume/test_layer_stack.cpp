@@ -3,6 +3,7 @@
 
 #include "core/errors.h"
 #include "core/feature_size.h"
+#include "core/nearest_triangle.h"
 #include "core/tet_mesh.h"
 #include "volume/improve.h"
 #include "volume/layer_stack.h"
@@ -177,6 +178,42 @@ TEST(LayerStack, APoorPrismOnARimEdgeLeavesAHoleClosedByTheCapsStrip)
     }
 }
 
+
+// The rim triangle, its columns upright (0.5 long), with a core face (a
+// cap's fill, given as such) 0.05 over c's top, level, its longest edge
+// 1.03. With min_core_clearance (0.2) c's column is shortened until its top
+// is at least 0.2 of that edge from the face; without it (0) it keeps its
+// whole height.
+TEST(LayerStack, AColumnsTopJustOverACapsFillIsShortened)
+{
+    const auto stack_of = [](double clearance) {
+        RimTriangle rim({0, 0, 1});
+        for (const Vec3& x : {Vec3{0, -1.5, 0.55}, Vec3{1, -1.5, 0.55}, Vec3{0.5, -0.6, 0.55}}) {
+            rim.surface.points.push_back(x);
+            rim.sizing.d.push_back(1.0);
+            rim.sizing.D.push_back(10.0);
+            rim.columns.inward.push_back({0, 0, 1});
+            rim.columns.dist.push_back(std::nan(""));
+            rim.columns.spacing.push_back(std::nan(""));
+            rim.columns.repaired.push_back(0);
+            rim.params.rim_columns.push_back(-1);
+        }
+        rim.params.core_faces = {{5, 6, 7}};
+        rim.params.min_core_clearance = clearance;
+        const LayerStack stack = build_layer_stack(rim.surface, rim.sizing, rim.columns, rim.params);
+        EXPECT_EQ(stack.holes, 0);
+        EXPECT_EQ(stack.prisms, 1);
+        const std::vector<Vec3>& p = rim.surface.points;
+        const Vec3 top = p[2] + stack.scale[2] * 0.5 * Vec3{0, 0, 1};
+        return std::pair{stack.scale[2], std::sqrt(point_triangle_distance2(top, p[5], p[6], p[7]))};
+    };
+    const auto [whole, near] = stack_of(0);
+    EXPECT_EQ(whole, 1.0);
+    EXPECT_NEAR(near, 0.05, 1e-12);
+    const auto [shortened, clear] = stack_of(0.2);
+    EXPECT_LT(shortened, 1.0);
+    EXPECT_GE(clear, 0.2 * std::hypot(0.5, 0.9));
+}
 
 // The directed edges of `faces` that no face runs the other way: the
 // boundary of the surface they make.
