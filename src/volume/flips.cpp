@@ -158,9 +158,9 @@ bool Flipper::remove_edge(int32_t a, int32_t b, FlipCounts& counts)
     };
     std::array<int8_t, kMaxRing * kMaxRing * kMaxRing> slot;
     slot.fill(-1);
-    static_assert(kMaxRing * (kMaxRing - 1) * (kMaxRing - 2) / 6 <= 35 && kMaxRing <= 10,
-                  "a ring's triangles fit `made`, and their count an int8_t");
-    Few<Triangle, 35> made;
+    constexpr int kRingTriangles = kMaxRing * (kMaxRing - 1) * (kMaxRing - 2) / 6;
+    static_assert(kRingTriangles <= 127, "a triangle's slot fits an int8_t");
+    Few<Triangle, kRingTriangles> made;
     const auto side = [&](int i, int j, int k, int32_t apex) {
         Side s;
         s.tet = oriented(ed_, c[i], c[j], c[k], apex, s.volume6);

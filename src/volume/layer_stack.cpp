@@ -11,9 +11,10 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <cmath>
-#include <string>
 #include <array>
+#include <cmath>
+#include <stdexcept>
+#include <string>
 #include <unordered_map>
 
 namespace scalemesh {
@@ -113,9 +114,10 @@ EdgeFaces wall_edge_faces(const SurfaceMesh& surface, const std::vector<int32_t>
 // The core's faces off the wall (the caps inside their last rings), for
 // the clearance of the columns' tops: too_near(x) when x is nearer one of
 // them than `clearance` times that face's longest edge. The faces are
-// binned in a uniform grid of cells as large as the largest face's reach,
-// so a point looks at the faces of its own cell alone; the faces' points
-// are surface points, which never move.
+// binned in a uniform grid, each in every cell its bounding box grown by
+// its reach overlaps (the cells as wide as the widest such box, so at most
+// two cells a side), and a point looks at the faces of its own cell alone.
+// The faces' points are surface points, which never move.
 class CapFill {
 public:
     CapFill(const std::vector<Vec3>& points, const std::vector<Triangle>& faces, double clearance)
@@ -127,10 +129,10 @@ public:
             reach2_.push_back(reach2);
             cell_ = std::max(cell_, 2 * std::sqrt(reach2) + std::max({norm(b - a), norm(c - b), norm(a - c)}));
         }
-        if (!(cell_ > 0)) return; // only flat faces: none is near anything
+        if (!(cell_ > 0)) return; // every face a point: none is near anything
         for (size_t i = 0; i < faces.size(); ++i) {
             const Triangle& f = faces[i];
-            const double reach = std::sqrt(reach2_[i]);
+            const double reach = std::sqrt(reach2_[i]) * (1 + 1e-9); // past the distance's round-off
             std::array<int64_t, 3> lo, hi;
             for (int k = 0; k < 3; ++k) {
                 const double a = points[f[0]][k], b = points[f[1]][k], c = points[f[2]][k];
@@ -145,6 +147,7 @@ public:
     bool empty() const { return cells_.empty(); }
     bool too_near(const Vec3& x) const
     {
+        if (cells_.empty()) return false;
         const auto it = cells_.find(key(index(x[0]), index(x[1]), index(x[2])));
         if (it == cells_.end()) return false;
         for (int32_t i : it->second) {
@@ -260,6 +263,11 @@ LayerStack build_layer_stack(const SurfaceMesh& surface, const FeatureSize& sizi
     }
     std::vector<Vec3> at(n + size_t(count)); // surface points, then layer points
     std::copy(surface.points.begin(), surface.points.end(), at.begin());
+    for (const Triangle& f : params.core_faces)
+        for (int32_t v : f)
+            if (v < 0 || v >= n)
+                throw std::invalid_argument("build_layer_stack: a core face's corner " + std::to_string(v) +
+                                            " is not a surface point");
     const CapFill fill(surface.points, params.core_faces, params.min_core_clearance);
     const auto place = [&] {
         tbb::parallel_for(int32_t(0), n, [&](int32_t v) {

@@ -47,6 +47,7 @@ struct LayerStackParams {
     // without openings. Such columns are fixed: they are the cap's nodes.
     std::vector<int32_t> rim_columns;
     std::vector<Triangle> core_faces; // the rest of the core's boundary (the caps inside their last rings),
+                                      // over surface points (std::invalid_argument otherwise),
                                       // checked with the stack's against crossings, and for the clearance
                                       // of the columns' tops
     double min_core_clearance = 0.2;  // a column's top point nearer a core face than this times the face's
